@@ -1,0 +1,64 @@
+# thermogym — one target per check. `make test` and `make demo` work on a fresh machine:
+# they create .venv and install what they need on first use.
+
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+PIP    := $(PY) -m pip
+STAMP  := $(VENV)/.installed-test
+STAMP_ALL := $(VENV)/.installed-all
+EXTRAS := test,rl
+OUT    ?= out
+
+.PHONY: help install install-all test test-all demo lint format bench clean
+
+help:
+	@echo "make demo      run the main job (thermogym demo) into $(OUT)/"
+	@echo "make test      run the default test suite (installs into .venv on first use)"
+	@echo "make test-all  run every test, slow ones and optional tools included"
+	@echo "make lint      ruff check + format check"
+	@echo "make bench     run the benchmarks in benchmarks/"
+
+$(VENV)/bin/python:
+	$(PYTHON) -m venv $(VENV)
+
+# The local CPU build of PyTorch is installed first when this machine has it, so that the
+# `rl` extra never pulls the registry's CUDA build (several GB).
+$(STAMP): pyproject.toml | $(VENV)/bin/python
+	$(PIP) install --no-index --no-deps "torch==2.13.0" >/dev/null 2>&1 \
+		&& $(PIP) install "torch==2.13.0" \
+		&& echo "installed local CPU build torch==2.13.0" \
+		|| echo "no local torch==2.13.0 wheel; the rl extra will take torch from the registry"
+	$(PIP) install -e ".[$(EXTRAS)]"
+	touch $@
+
+install: $(STAMP)
+
+$(STAMP_ALL): $(STAMP)
+	$(PIP) install -e ".[$(EXTRAS),all]"
+	touch $@
+
+install-all: $(STAMP_ALL)
+
+test: $(STAMP)
+	$(PY) -m pytest -m "not slow" -q
+
+test-all: $(STAMP_ALL)
+	$(PY) -m pytest -q
+
+demo: $(STAMP)
+	$(VENV)/bin/thermogym demo --out $(OUT)
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check thermogym tests benchmarks
+	$(VENV)/bin/ruff format --check thermogym tests benchmarks
+
+format: $(STAMP)
+	$(VENV)/bin/ruff format thermogym tests benchmarks
+	$(VENV)/bin/ruff check --fix thermogym tests benchmarks
+
+bench: $(STAMP)
+	$(PY) benchmarks/simulate.py
+
+clean:
+	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache

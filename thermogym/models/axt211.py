@@ -1,0 +1,534 @@
+"""SAUTER AXT211 electrothermal valve actuator (PTC heater, wax cartridge, spring return).
+
+Description
+-----------
+Grey-box model of ``002_dae2310635fe074e.txt`` (Muffato & Kunz), section VI:
+a PTC thermistor heats a wax cartridge; the wax expands and pushes the valve
+rod through a play (backlash); a spring closes the valve when the wax cools.
+
+States ``x = [T_P, T_G, x_P, x_V]``: wax-cartridge temperature, housing
+temperature, cartridge stroke (the paper's three states, eq 12) plus the
+valve stroke ``x_V`` that the backlash operator (20) keeps as memory of the
+previous sample.
+
+Equations (numbers of ``002_dae2310635fe074e.txt``)::
+
+    R_PTC = Σ_i R_i τ^i,  τ = (T_P − 65 °C) / 35 K                  (14)
+    P_PTC = (k_U u)² / R_PTC                                         (15)
+    C_P dT_P/dt = P_PTC − λ_PG (T_P − T_G)                           (17)
+    C_G dT_G/dt = λ_PG (T_P − T_G) − λ_GU (T_G − T_U)                (18)
+    τ_P dx_P/dt = k_P(x_P) (T_P − T_P0) − x_P                        (19)
+    k_P(x_P) = a x_P² + b x_P + c,  a < 0                            (21)
+    x_V = backlash_c(x_P)  (play of half-width c)                    (20)
+
+Eq. (14) is written in a normalised temperature τ so that the polynomial
+coefficients have comparable magnitudes (least-squares conditioning); it is the
+same 5th-order polynomial in T_P. It is validated for T_P in [30, 101] °C
+(paper); below 30 °C the resistance is held at R(30 °C) (a PTC is flat below its
+switching range), above 101 °C it is extended linearly with the slope at
+101 °C.
+
+The stroke coordinate ``x_P`` is measured from the point where the cartridge
+touches the closed valve rod, so it ranges over ``[−c, x_max + c]`` and the
+valve stroke ``x_V`` over ``[0, x_max]`` (x_max = 4.5 mm).
+
+Integration: explicit classical Runge-Kutta 4 with a fixed step of at most
+``max_step`` = 1 s (section III-A: fixed steps keep finite-difference Jacobians
+consistent); compiled with numba, one call for the whole batch.
+
+Parameter values
+----------------
+The paper does not publish its parameter values. The defaults below were chosen
+here to reproduce what it states (section V and VI): at 24 V and 25 °C ambient,
+u = 1, the valve starts moving when T_P is about 60 °C and reaches 4.5 mm after
+about 5 minutes; the stroke gain peaks near T_P = 68 °C (Fig. 3); closing is
+slower than opening (16); supply 19-29 V and ambient 0-50 °C stay in range.
+The PTC curve gives about 6 W cold and 1.5-2.5 W when self-regulating, in line
+with small 24 V thermal actuators.
+
+====================  ========  =========  =================================================
+parameter             nominal   unit       provenance
+====================  ========  =========  =================================================
+R_0 … R_5             see code  Ω          chosen: smooth PTC curve, 90 Ω cold, 360 Ω at 101 °C
+C_P                   24        J/K        chosen: 4.5 mm stroke after ~5 min at 24 V, 25 °C
+lambda_PG             0.07      W/K        chosen: self-regulation near 95 °C
+C_G                   40        J/K        chosen: ~50 g plastic housing
+lambda_GU             0.065     W/K        chosen: natural convection of the housing
+T_P0                  60        °C         paper section V: movement begins at about 60 °C
+kP_a, kP_b, kP_c      -0.018,   mm/K/mm²,  chosen: gain peaks at 68 °C (paper Fig. 3), full
+                      0.14,     1/K,       stroke near 76 °C
+                      0.02      mm/K
+tau_P                 8         s          chosen: mechanical lag, much faster than thermal
+x_max                 4.5       mm         paper section V: 4.5 mm stroke
+c_backlash            0.1       mm         chosen: visible hysteresis as in paper Fig. 3
+====================  ========  =========  =================================================
+
+Version History
+---------------
+* v1: initial release.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from thermogym.errors import ShapeError
+from thermogym.models._effects import EffectLayout, PhysicalEffect
+from thermogym.models.base import Model, Parameter, Signal
+
+__all__ = ["AXT211", "AXT211_EFFECTS", "AXT211_PARAMETERS", "AXT211_SIGNALS", "ptc_resistance"]
+
+_P = (
+    "chosen here to reproduce the behaviour stated in 002_dae2310635fe074e.txt (values unpublished)"
+)
+
+AXT211_SIGNALS: tuple[Signal, ...] = (
+    Signal("u", "input", "1", "normalised control input (heater on-fraction), 0..1"),
+    Signal("k_U", "disturbance", "V", "supply voltage"),
+    Signal("T_U", "disturbance", "°C", "actuator environment temperature"),
+    Signal("P_PTC", "output", "W", "PTC power consumption (15)"),
+    Signal("R_PTC", "output", "Ohm", "PTC electrical resistance (14)"),
+    Signal("T_P", "output", "°C", "wax cartridge temperature"),
+    Signal("T_G", "output", "°C", "actuator housing temperature"),
+    Signal("x_P", "output", "mm", "wax cartridge stroke (from the rod contact point)"),
+    Signal("x_V", "output", "mm", "valve stroke"),
+)
+
+_R_NOM = (103.211, 36.809, 46.425, 48.353, 64.433, 38.429)
+
+AXT211_PARAMETERS: tuple[Parameter, ...] = (
+    *(
+        Parameter(
+            f"R_{i}",
+            _R_NOM[i],
+            _R_NOM[i] - 3 * abs(_R_NOM[i]) - 20,
+            _R_NOM[i] + 3 * abs(_R_NOM[i]) + 20,
+            "Ohm",
+            f"PTC polynomial coefficient of τ^{i}, τ = (T_P − 65 °C)/35 K (14)",
+            _P,
+            "ptc",
+        )
+        for i in range(6)
+    ),
+    Parameter("C_P", 24.0, 3.0, 60.0, "J/K", "wax cartridge heat capacity (17)", _P, "thermal"),
+    Parameter(
+        "lambda_PG", 0.07, 0.01, 0.3, "W/K", "conductance cartridge → housing (17)", _P, "thermal"
+    ),
+    Parameter("C_G", 40.0, 10.0, 300.0, "J/K", "housing heat capacity (18)", _P, "thermal"),
+    Parameter(
+        "lambda_GU",
+        0.065,
+        0.01,
+        0.3,
+        "W/K",
+        "conductance housing → environment (18)",
+        _P,
+        "thermal",
+    ),
+    Parameter(
+        "T_P0",
+        60.0,
+        45.0,
+        75.0,
+        "°C",
+        "wax temperature at which the stroke begins (19)",
+        "002_dae2310635fe074e.txt section V: 'about 60 °C'",
+        "mechanical",
+    ),
+    Parameter(
+        "kP_a",
+        -0.018,
+        -0.1,
+        -1e-4,
+        "1/(K·mm)",
+        "quadratic coefficient of k_P (21)",
+        _P,
+        "mechanical",
+    ),
+    Parameter("kP_b", 0.14, 0.0, 0.5, "1/K", "linear coefficient of k_P (21)", _P, "mechanical"),
+    Parameter("kP_c", 0.02, 0.0, 0.5, "mm/K", "constant coefficient of k_P (21)", _P, "mechanical"),
+    Parameter("tau_P", 8.0, 1.0, 200.0, "s", "mechanical time constant (19)", _P, "mechanical"),
+    Parameter(
+        "x_max",
+        4.5,
+        3.0,
+        6.0,
+        "mm",
+        "valve stroke",
+        "002 section V: stroke of 4.5 mm",
+        "mechanical",
+    ),
+    Parameter(
+        "c_backlash",
+        0.1,
+        0.0,
+        1.0,
+        "mm",
+        "half width of the backlash deadband (20)",
+        _P,
+        "mechanical",
+    ),
+)
+
+AXT211_EFFECTS: dict[str, PhysicalEffect] = {
+    "phase_change": PhysicalEffect(
+        "phase_change",
+        "The wax melts over a narrow temperature range: while it melts, heat goes into latent "
+        "heat instead of raising its temperature, so the cartridge lingers near its melting "
+        "point and the stroke starts later and more abruptly than a constant heat capacity "
+        "predicts.",
+        (
+            Parameter(
+                "L_melt",
+                0.0,
+                0.0,
+                2000.0,
+                "J",
+                "latent heat of the wax charge",
+                "effect parameter; 0 switches it off",
+                "effect",
+            ),
+            Parameter(
+                "T_melt",
+                58.0,
+                40.0,
+                75.0,
+                "°C",
+                "melting temperature of the wax",
+                "effect parameter",
+                "effect",
+            ),
+            Parameter(
+                "w_melt",
+                3.0,
+                0.5,
+                10.0,
+                "K",
+                "width (std) of the melting range",
+                "effect parameter",
+                "effect",
+            ),
+        ),
+    ),
+    "nonlinear_heat_transfer": PhysicalEffect(
+        "nonlinear_heat_transfer",
+        "The housing loses heat by natural convection and radiation, whose conductance grows "
+        "with the temperature difference (h ∝ ΔT^n): a hot actuator cools relatively faster "
+        "than a warm one, which a constant conductance cannot reproduce at every power level.",
+        (
+            Parameter(
+                "n_conv",
+                0.0,
+                -0.2,
+                0.6,
+                "1",
+                "exponent of λ_GU ∝ (ΔT/20 K)^n",
+                "effect parameter; 0 = constant conductance, 1/4..1/3 natural convection",
+                "effect",
+            ),
+        ),
+    ),
+    "supply_variation": PhysicalEffect(
+        "supply_variation",
+        "The supply sags under load: a transformer or long cable with internal resistance "
+        "R_s drops part of the voltage while the PTC draws current, so the heater gets less "
+        "power than the measured no-load supply voltage implies, most when the PTC is cold.",
+        (
+            Parameter(
+                "R_source",
+                0.0,
+                0.0,
+                200.0,
+                "Ohm",
+                "internal resistance of the supply",
+                "effect parameter; 0 switches it off",
+                "effect",
+            ),
+        ),
+    ),
+}
+
+# Column indices in the kernel's full parameter vector.
+_I_R = 0
+_I_CP, _I_LPG, _I_CG, _I_LGU = 6, 7, 8, 9
+_I_T0, _I_KA, _I_KB, _I_KC, _I_TAU, _I_XMAX, _I_C = 10, 11, 12, 13, 14, 15, 16
+_I_L, _I_TM, _I_WM, _I_NCONV, _I_RS = 17, 18, 19, 20, 21
+_T_LO, _T_HI, _DT_REF = 30.0, 101.0, 20.0
+
+
+@nb.njit(cache=True, inline="always")
+def _ptc_poly(T: float, p: NDArray[np.float64]) -> tuple[float, float]:
+    tau = (T - 65.0) / 35.0
+    r = p[_I_R + 5]
+    dr = 5.0 * p[_I_R + 5]
+    for i in range(4, -1, -1):
+        r = r * tau + p[_I_R + i]
+        if i > 0:
+            dr = dr * tau + i * p[_I_R + i]
+    return r, dr / 35.0
+
+
+@nb.njit(cache=True)
+def _resistance(T: float, p: NDArray[np.float64]) -> float:
+    # (14), clamped below 30 °C and extended linearly above 101 °C (validated range).
+    if T < _T_LO:
+        return _ptc_poly(_T_LO, p)[0]
+    if T > _T_HI:
+        r, dr = _ptc_poly(_T_HI, p)
+        return r + dr * (T - _T_HI)
+    return _ptc_poly(T, p)[0]
+
+
+@nb.njit(cache=True)
+def _power(T: float, u: float, kU: float, p: NDArray[np.float64]) -> tuple[float, float]:
+    R = _resistance(T, p)
+    v = kU * u
+    Rs = p[_I_RS]
+    # (15); with a source resistance R_s the PTC sees V·R/(R+R_s).
+    return v * v * R / ((R + Rs) * (R + Rs)), R
+
+
+@nb.njit(cache=True)
+def _rhs(
+    TP: float, TG: float, xP: float, u: float, kU: float, TU: float, p: NDArray[np.float64]
+) -> tuple[float, float, float]:
+    P, _ = _power(TP, u, kU, p)
+    CP = p[_I_CP]
+    L = p[_I_L]
+    if L > 0.0:
+        z = (TP - p[_I_TM]) / p[_I_WM]
+        # latent heat spread as a Gaussian over the melting range
+        CP += L * math.exp(-0.5 * z * z) / (p[_I_WM] * 2.5066282746310002)
+    q_pg = p[_I_LPG] * (TP - TG)
+    dT = TG - TU
+    lgu = p[_I_LGU]
+    n = p[_I_NCONV]
+    if n != 0.0:
+        # natural convection / radiation: λ_GU (|ΔT| / 20 K)^n
+        lgu = lgu * max(abs(dT) / _DT_REF, 1e-3) ** n
+    dTP = (P - q_pg) / CP  # (17)
+    dTG = (q_pg - lgu * dT) / p[_I_CG]  # (18)
+    xpos = max(xP, 0.0)
+    k = (p[_I_KA] * xpos + p[_I_KB]) * xpos + p[_I_KC]  # (21)
+    dx = (k * (TP - p[_I_T0]) - xP) / p[_I_TAU]  # (19)
+    c = p[_I_C]
+    if (xP >= p[_I_XMAX] + c and dx > 0.0) or (xP <= -c and dx < 0.0):
+        dx = 0.0
+    return dTP, dTG, dx
+
+
+@nb.njit(cache=True)
+def _backlash(xP: float, xV_prev: float, c: float, xmax: float) -> float:
+    # (20): the rod follows the cartridge only once the play of half-width c is taken up.
+    if xP < xV_prev - c:
+        xV = xP + c
+    elif xP > xV_prev + c:
+        xV = xP - c
+    else:
+        xV = xV_prev
+    return min(max(xV, 0.0), xmax)
+
+
+@nb.njit(cache=True)
+def _advance(
+    x: NDArray[np.float64], u: float, kU: float, TU: float, p: NDArray[np.float64], h: float, n: int
+) -> None:
+    TP, TG, xP, xV = x[0], x[1], x[2], x[3]
+    lo = -p[_I_C]
+    hi = p[_I_XMAX] + p[_I_C]
+    for _ in range(n):
+        # classical RK4, fixed step h
+        a1, b1, c1 = _rhs(TP, TG, xP, u, kU, TU, p)
+        a2, b2, c2 = _rhs(TP + 0.5 * h * a1, TG + 0.5 * h * b1, xP + 0.5 * h * c1, u, kU, TU, p)
+        a3, b3, c3 = _rhs(TP + 0.5 * h * a2, TG + 0.5 * h * b2, xP + 0.5 * h * c2, u, kU, TU, p)
+        a4, b4, c4 = _rhs(TP + h * a3, TG + h * b3, xP + h * c3, u, kU, TU, p)
+        TP += h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+        TG += h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
+        xP += h / 6.0 * (c1 + 2.0 * c2 + 2.0 * c3 + c4)
+        xP = min(max(xP, lo), hi)
+        xV = _backlash(xP, xV, p[_I_C], p[_I_XMAX])
+    x[0], x[1], x[2], x[3] = TP, TG, xP, xV
+
+
+@nb.njit(cache=True)
+def _outputs(
+    x: NDArray[np.float64], u: float, kU: float, p: NDArray[np.float64], y: NDArray[np.float64]
+) -> None:
+    P, R = _power(x[0], u, kU, p)
+    y[0] = P
+    y[1] = R
+    y[2] = x[0]
+    y[3] = x[1]
+    y[4] = x[2]
+    y[5] = x[3]
+
+
+@nb.njit(cache=True)
+def _simulate_kernel(
+    theta: NDArray[np.float64],
+    u: NDArray[np.float64],
+    x0: NDArray[np.float64],
+    h: float,
+    n: int,
+    y: NDArray[np.float64],
+    xs: NDArray[np.float64],
+    keep: bool,
+) -> None:
+    B, T = u.shape[0], u.shape[1]
+    x = np.empty(4)
+    for b in range(B):
+        p = theta[b]
+        x[:] = x0[b]
+        for k in range(T):
+            _outputs(x, u[b, k, 0], u[b, k, 1], p, y[b, k])
+            if keep:
+                xs[b, k, :] = x
+            if k + 1 < T:
+                _advance(x, u[b, k, 0], u[b, k, 1], u[b, k, 2], p, h, n)
+
+
+@nb.njit(cache=True)
+def _step_kernel(
+    x: NDArray[np.float64], u: NDArray[np.float64], theta: NDArray[np.float64], h: float, n: int
+) -> None:
+    for b in range(x.shape[0]):
+        _advance(x[b], u[b, 0], u[b, 1], u[b, 2], theta[b], h, n)
+
+
+@nb.njit(cache=True)
+def _output_kernel(
+    x: NDArray[np.float64],
+    u: NDArray[np.float64],
+    theta: NDArray[np.float64],
+    y: NDArray[np.float64],
+) -> None:
+    for b in range(x.shape[0]):
+        _outputs(x[b], u[b, 0], u[b, 1], theta[b], y[b])
+
+
+def ptc_resistance(
+    T_P: NDArray[np.float64] | float, coeffs: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """PTC resistance (14) for temperatures ``T_P`` [°C] and coefficients ``R_0..R_5`` [Ω].
+
+    Parameters
+    ----------
+    T_P : float or ndarray
+        Wax-cartridge temperature [°C].
+    coeffs : ndarray, shape (6,)
+        Polynomial coefficients of τ^0..τ^5, τ = (T_P − 65 °C)/35 K.
+
+    Returns
+    -------
+    ndarray
+        Resistance [Ω], clamped below 30 °C and linearly extended above 101 °C.
+
+    Examples
+    --------
+    >>> from thermogym.models.axt211 import AXT211, ptc_resistance
+    >>> m = AXT211()
+    >>> round(float(ptc_resistance(30.0, m.nominal[:6])), 1)
+    90.5
+    """
+    p = np.zeros(len(AXT211_PARAMETERS) + 5)
+    p[:6] = np.asarray(coeffs, dtype=float)
+    T = np.atleast_1d(np.asarray(T_P, dtype=float))
+    out = np.array([_resistance(float(t), p) for t in T.ravel()]).reshape(T.shape)
+    return out if np.ndim(T_P) else out[0]
+
+
+class AXT211(Model):
+    """SAUTER AXT211 wax-cartridge electrothermal valve actuator (paper 002, eqs 12-21).
+
+    Parameters
+    ----------
+    effects : sequence of str
+        Physical effects to include (``phase_change``, ``nonlinear_heat_transfer``,
+        ``supply_variation``); their parameters are appended to the public
+        parameters with neutral nominal values.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from thermogym.models import AXT211
+    >>> m = AXT211()
+    >>> u = np.column_stack([np.ones(601), np.full(601, 24.0), np.full(601, 25.0)])
+    >>> sim = m.simulate(u, dt=1.0)
+    >>> bool(sim.output("x_V")[0, -1] > 4.4)
+    True
+    """
+
+    name = "axt211"
+    version = "1"
+    max_step = 1.0
+    physical_effects = AXT211_EFFECTS
+
+    def __init__(self, effects: tuple[str, ...] | list[str] = ()) -> None:
+        self._layout = EffectLayout(AXT211_PARAMETERS, AXT211_EFFECTS, effects, self.name)
+        super().__init__(AXT211_SIGNALS, self._layout.public, ("T_P", "T_G", "x_P", "x_V"))
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        """Physical effects this instance includes."""
+        return self._layout.selected
+
+    def config(self) -> dict[str, Any]:
+        """Constructor arguments (stored in FitResults)."""
+        return {"effects": list(self._layout.selected)} if self._layout.selected else {}
+
+    def _validate_theta(self, theta: NDArray[np.float64]) -> None:
+        self._require_positive(theta, ("C_P", "lambda_PG", "C_G", "lambda_GU", "tau_P", "x_max"))
+
+    @staticmethod
+    def _check_u(u: NDArray[np.float64]) -> None:
+        uu = u[..., 0]
+        if (uu < 0).any() or (uu > 1).any():
+            v = uu[(uu < 0) | (uu > 1)].flat[0]
+            raise ShapeError(f"input 'u' is {float(v)!r}; expected a normalised input in [0, 1]")
+        kU = u[..., 1]
+        if (kU < 0).any():
+            raise ShapeError(f"supply 'k_U' is {float(kU[kU < 0].flat[0])!r} V; expected >= 0")
+
+    def initial_state(
+        self, theta: NDArray[np.float64], u0: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Rest state: both temperatures at the environment, cartridge retracted, valve shut."""
+        B = theta.shape[0]
+        x = np.empty((B, 4))
+        x[:, 0] = u0[:, 2]
+        x[:, 1] = u0[:, 2]
+        x[:, 2] = -theta[:, self.param_index("c_backlash")]
+        x[:, 3] = 0.0
+        return x
+
+    def _simulate(self, theta, u, dt, x0, return_states):
+        self._check_u(u)
+        full = self._layout.full_theta(theta)
+        B, T = u.shape[0], u.shape[1]
+        n = self.n_substeps(dt)
+        y = np.empty((B, T, 6))
+        xs = np.empty((B, T, 4)) if return_states else np.empty((1, 1, 4))
+        _simulate_kernel(full, u, x0, dt / n, n, y, xs, return_states)
+        return y, (xs if return_states else None)
+
+    def _step(self, x, u, theta, dt):
+        xn = np.array(x, dtype=float, copy=True)
+        n = self.n_substeps(dt)
+        _step_kernel(xn, np.ascontiguousarray(u), self._layout.full_theta(theta), dt / n, n)
+        return xn
+
+    def _output(self, x, u, theta):
+        y = np.empty((x.shape[0], 6))
+        _output_kernel(
+            np.ascontiguousarray(x), np.ascontiguousarray(u), self._layout.full_theta(theta), y
+        )
+        return y
+
+    def full_theta(self, theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Kernel parameter vector including neutral values of absent effects."""
+        return self._layout.full_theta(theta)
