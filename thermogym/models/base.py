@@ -458,7 +458,7 @@ class Model(ABC):
                 f"exogenous signal {self.exogenous_names[j]!r} is {float(ua[b, k, j])!r} at "
                 f"sample {int(k)}; simulation needs finite inputs (prepare the recording first)"
             )
-        return np.ascontiguousarray(ua)
+        return ua
 
     def simulate(
         self,
@@ -502,7 +502,10 @@ class Model(ABC):
         if th.shape[0] == 1 and B > 1:
             th = np.repeat(th, B, axis=0)
         if ua.shape[0] == 1 and B > 1:
+            # a read-only view (stride 0): kernels may use the shared trajectory as it is
             ua = np.broadcast_to(ua, (B, *ua.shape[1:]))
+        elif not ua.flags.c_contiguous:
+            ua = np.ascontiguousarray(ua)
         if x0 is None:
             x = self.initial_state(th, ua[:, 0, :])
         else:

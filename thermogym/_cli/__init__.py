@@ -1,0 +1,1 @@
+"""Sub-commands of the ``thermogym`` command line (one module each)."""

@@ -1,0 +1,131 @@
+"""Virtual test rigs: experiments like the papers', written as recordings.
+
+>>> from thermogym.rigs import get_rig, rig_names
+>>> rig_names()
+['axt211', 'spindle', 'strut']
+>>> sorted(get_rig("strut").protocols)
+['steps']
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from thermogym._fileio import atomic_write_text
+from thermogym.errors import ConfigError, UnknownNameError
+from thermogym.recording import Recording, write_recording
+from thermogym.rigs.axt211 import AXT211Rig
+from thermogym.rigs.base import EFFECT_NAMES, EffectSpec, Rig, RigRun, parse_effect
+from thermogym.rigs.spindle import SpindleRig
+from thermogym.rigs.strut import StrutRig
+
+__all__ = [
+    "EFFECT_NAMES",
+    "EffectSpec",
+    "Rig",
+    "RigRun",
+    "get_rig",
+    "parse_effect",
+    "rig_names",
+    "run_experiment",
+    "to_recording",
+]
+
+_RIGS: dict[str, type[Rig]] = {"axt211": AXT211Rig, "spindle": SpindleRig, "strut": StrutRig}
+
+
+def rig_names() -> list[str]:
+    """Names of the virtual rigs."""
+    return list(_RIGS)
+
+
+def get_rig(name: str, effects: Sequence[str | EffectSpec] = ()) -> Rig:
+    """Build the rig called ``name``, optionally carrying extra physics.
+
+    Parameters
+    ----------
+    name : str
+        ``axt211``, ``spindle`` or ``strut``.
+    effects : sequence of str or EffectSpec
+        ``NAME[:k=v,...]`` effects from the vocabulary (see :data:`EFFECT_NAMES`).
+    """
+    try:
+        cls = _RIGS[name]
+    except KeyError:
+        raise UnknownNameError(f"unknown rig {name!r}; rigs are {rig_names()}") from None
+    return cls(effects)
+
+
+def to_recording(run: RigRun, rig: str) -> Recording:
+    """Turn a rig run into a :class:`~thermogym.recording.Recording` (truth is not kept)."""
+    return Recording(
+        run.time,
+        run.columns,
+        units={k: v for k, v in run.units.items() if k in run.columns},
+        roles={k: v for k, v in run.roles.items() if k in run.columns},
+        experiment_id=run.experiment_id,
+        source=f"thermogym virtual rig {rig!r}",
+        meta=run.meta,
+    )
+
+
+def run_experiment(
+    rig: str,
+    protocol: str,
+    out: str | Path | None = None,
+    *,
+    seed: int = 0,
+    effects: Sequence[str | EffectSpec] = (),
+    fmt: str = "csv",
+    overwrite: bool = True,
+    **options: Any,
+) -> list[Recording]:
+    """Run a rig protocol; write its recordings and a ``manifest.json`` when ``out`` is given.
+
+    Parameters
+    ----------
+    rig, protocol : str
+        Rig name and protocol name.
+    out : path, optional
+        Folder for the recordings (created if needed).
+    seed : int
+        Seed of every random draw.
+    effects : sequence
+        Concealed physics (never written to the metadata).
+    fmt : {"csv", "parquet"}
+        File format.
+    overwrite : bool
+        Replace existing files of the same name.
+    **options
+        Protocol options.
+
+    Returns
+    -------
+    list of Recording
+    """
+    if fmt not in ("csv", "parquet"):
+        raise ConfigError(f"format {fmt!r} is not supported; use 'csv' or 'parquet'")
+    r = get_rig(rig, effects)
+    recs = [to_recording(run, rig) for run in r.run(protocol, seed=seed, **options)]
+    if out is not None:
+        folder = Path(out)
+        folder.mkdir(parents=True, exist_ok=True)
+        entries = []
+        for rec in recs:
+            path = folder / f"{rec.experiment_id}.{fmt}"
+            write_recording(rec, path, overwrite=overwrite)
+            entries.append(
+                {
+                    "file": path.name,
+                    "experiment_id": rec.experiment_id,
+                    "n_samples": rec.n_samples,
+                    "duration_s": rec.duration,
+                    "meta": rec.meta,
+                }
+            )
+        manifest = {"rig": rig, "protocol": protocol, "seed": seed, "recordings": entries}
+        atomic_write_text(folder / "manifest.json", json.dumps(manifest, indent=2) + "\n")
+    return recs
