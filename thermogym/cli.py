@@ -22,6 +22,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "models": ("thermogym._cli.models", "list the models with their signals and parameters"),
     "simulate": ("thermogym._cli.simulate", "simulate a model on the inputs of a recording"),
     "experiment": ("thermogym._cli.experiment", "run a virtual test rig protocol"),
+    "identify": ("thermogym._cli.identify", "fit a model to recordings, write a FitResult"),
     "demo": ("thermogym._cli.demo", "run the whole loop on embedded defaults"),
 }
 

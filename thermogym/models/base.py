@@ -469,6 +469,7 @@ class Model(ABC):
         *,
         t0: float = 0.0,
         return_states: bool = False,
+        strict: bool = True,
     ) -> Simulation:
         """Simulate a batch of parameter sets on a uniform time grid.
 
@@ -487,6 +488,9 @@ class Model(ABC):
             Time of the first sample [s].
         return_states : bool
             Keep the state trajectories (memory: B·T·n_x floats).
+        strict : bool
+            Raise :class:`SimulationError` when a parameter set's outputs become
+            non-finite (default). Optimisers pass ``False`` and get NaN rows.
 
         Returns
         -------
@@ -518,7 +522,7 @@ class Model(ABC):
                     f"({B}, {len(self._state_names)}) for states {list(self._state_names)}"
                 )
         y, xs = self._simulate(th, ua, float(dt), np.ascontiguousarray(x), return_states)
-        if not np.isfinite(y).all():
+        if strict and not np.isfinite(y).all():
             b = int(np.argwhere(~np.isfinite(y))[0][0])
             raise SimulationError(
                 f"model {self.name!r}: simulation of parameter set {b} became non-finite; "
