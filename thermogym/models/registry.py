@@ -33,10 +33,13 @@ def _load_builtin() -> None:
         ("thermogym.models.strut", ("strut",)),
         ("thermogym.models.room", ("room",)),
         ("thermogym.models.linear", ("ss", "foptd")),
+        ("thermogym.models.tclab", ("tclab",)),
     ):
         try:
             mod = __import__(module, fromlist=["MODELS"])
-        except ModuleNotFoundError:
+        except ModuleNotFoundError as e:
+            if e.name != module:
+                raise
             continue
         for n in names:
             register_model(n, mod.MODELS[n])
