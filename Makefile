@@ -34,8 +34,13 @@ $(STAMP): pyproject.toml | $(VENV)/bin/python
 
 install: $(STAMP)
 
+# Optional system tools for the optional tests: GNU Octave (external .m models). Installed
+# with apt-get where we may (root); otherwise those tests skip with their reason.
 $(STAMP_ALL): $(STAMP)
 	$(PIP) install -e ".[$(EXTRAS),all]"
+	@command -v octave >/dev/null || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+		&& apt-get install -y --no-install-recommends octave >/dev/null \
+		|| echo "octave not installed: its tests will skip"; }
 	touch $@
 
 install-all: $(STAMP_ALL)
