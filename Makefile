@@ -10,7 +10,7 @@ STAMP_ALL := $(VENV)/.installed-all
 EXTRAS := test,rl
 OUT    ?= out
 
-.PHONY: help install install-all test test-all demo lint format bench clean
+.PHONY: help install install-all test test-all firmware-test demo lint format bench clean
 
 help:
 	@echo "make demo      run the main job (thermogym demo) into $(OUT)/"
@@ -50,6 +50,11 @@ test: $(STAMP)
 
 test-all: $(STAMP_ALL)
 	$(PY) -m pytest -q
+	$(MAKE) -C firmware test
+
+# Host build and tests of the C firmware (and the AVR build under simavr when available).
+firmware-test:
+	$(MAKE) -C firmware test
 
 demo: $(STAMP)
 	$(VENV)/bin/thermogym demo --out $(OUT)
@@ -62,8 +67,14 @@ format: $(STAMP)
 	$(VENV)/bin/ruff format thermogym tests benchmarks
 	$(VENV)/bin/ruff check --fix thermogym tests benchmarks
 
-bench: $(STAMP)
-	$(PY) benchmarks/simulate.py
+BENCH_OUT ?= $(OUT)/bench
+
+# Each benchmark prints its ratio against a named peer and writes its figures as JSON.
+bench: $(STAMP_ALL)
+	@for b in simulate global_fit strut_study axt211_greybox n4sid env_throughput year firmware; do \
+		[ -f benchmarks/$$b.py ] || continue; \
+		echo "== benchmarks/$$b.py"; $(PY) benchmarks/$$b.py --json $(BENCH_OUT)/$$b.json || exit 1; \
+	done
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache

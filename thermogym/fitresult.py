@@ -568,7 +568,8 @@ class FitResult:
                 "refit on the recordings or use the thermogym version that produced it "
                 f"({self.package_version})"
             )
-        unknown = [n for n in self.parameters if n not in model.param_names]
+        known = set(model.param_names)  # a set: state-space models have thousands
+        unknown = [n for n in self.parameters if n not in known]
         if unknown:
             raise ParameterError(
                 f"the FitResult has parameter(s) {unknown} that model {self.model!r} "

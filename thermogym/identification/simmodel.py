@@ -131,6 +131,11 @@ class ThermogymModel:
         self.output_names = model.output_names
         self._x0 = x0
 
+    @property
+    def x0(self) -> Any:
+        """Initial-state rule: ``"rest"`` or a callable ``x0(model, theta_full, experiment)``."""
+        return self._x0
+
     def full_theta(self, theta: NDArray[np.float64]) -> NDArray[np.float64]:
         """Model parameter batch (B, P_model) with the free columns set from ``theta``."""
         th = np.atleast_2d(np.asarray(theta, dtype=float))

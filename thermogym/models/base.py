@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import re
 from abc import ABC, abstractmethod
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -204,8 +205,8 @@ class Model(ABC):
         parameters: Sequence[Parameter],
         state_names: Sequence[str],
     ) -> None:
-        names = [s.name for s in signals] + [p.name for p in parameters]
-        dup = sorted({n for n in names if names.count(n) > 1})
+        counts = Counter([s.name for s in signals] + [p.name for p in parameters])
+        dup = sorted(n for n, c in counts.items() if c > 1)
         if dup:
             raise ParameterError(f"{type(self).__name__}: duplicate names {dup}")
         self._signals = tuple(signals)

@@ -278,14 +278,15 @@ def _staircase(
     kp, ti, integ = 0.15, 300.0, 0.0
     iT = model.output_names.index("T_P")
     for k in range(n):
-        y = model._output(x, u[k : k + 1], th)[0]
-        ys[k] = y
-        e = sp[k] - (y[iT] + rig.sensors["T_P"].noise * rng.standard_normal())
+        T_meas = model._output(x, u[k : k + 1], th)[0, iT]
+        e = sp[k] - (T_meas + rig.sensors["T_P"].noise * rng.standard_normal())
         raw = kp * e + integ
         frac = min(max(raw, 0.0), 1.0)
         if raw == frac:  # anti-windup: integrate only while unsaturated
             integ += kp * dt / ti * e
         u[k, 0] = np.sqrt(frac)
+        # the outputs of sample k (the PTC power included) with the input applied at k
+        ys[k] = model._output(x, u[k : k + 1], th)[0]
         x = model._step(x, u[k : k + 1], th, dt)
     out = {name: ys[:, i] for i, name in enumerate(model.output_names)}
     t = dt * np.arange(n)

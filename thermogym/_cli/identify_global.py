@@ -1,0 +1,351 @@
+r"""``thermogym identify greybox|montecarlo|anneal|evolution|cmaes``: the coordinator.
+
+Fits a registered thermogym model (``--model``) or an external model
+(``--external CONFIG``, a TOML/YAML file read by
+:func:`thermogym.identification.external.load_external`) to recordings and
+writes a FitResult JSON::
+
+    thermogym identify greybox --model axt211 data/axt211/*.csv --out fit.json \\
+        --free C_P --free lambda_PG --free C_G --free lambda_GU --pair T_P --pair T_G
+
+    thermogym identify montecarlo --model strut strut/strut-step-20.csv --out fit.json \\
+        --free r_motor --free r_nut --fix T_ref=20 --samples 10000 --time-limit 60
+
+The problem set-up follows paper 000 (workflow steps 2-7): free parameters
+with bounds and start values (``--free NAME=LO:HI[:START]``), values set
+manually (``--fix``), ratio parameters (``--ratio``), signal pairs with weights
+(``--pair``), the method and its stop criteria. Ctrl-C ends the search and
+still writes the best result found.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from thermogym.errors import ConfigError, UnknownNameError
+
+_METHODS = ("greybox", "montecarlo", "anneal", "evolution", "cmaes")
+
+#: CLI option → (method option name, methods it applies to)
+_METHOD_OPTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
+    "jac": ("jac", ("greybox",)),
+    "diff": ("diff", ("greybox",)),
+    "solver": ("solver", ("greybox",)),
+    "samples": ("n_samples", ("montecarlo",)),
+    "batch_size": ("batch_size", ("montecarlo",)),
+    "sampler": ("sampler", ("montecarlo",)),
+    "chains": ("n_chains", ("anneal",)),
+    "popsize": ("popsize", ("evolution", "cmaes")),
+    "sigma0": ("sigma0", ("cmaes",)),
+}
+
+
+def build_parser(method: str) -> argparse.ArgumentParser:
+    """Parser of ``thermogym identify METHOD``."""
+    p = argparse.ArgumentParser(
+        prog=f"thermogym identify {method}",
+        description=__doc__.splitlines()[0] if __doc__ else None,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--model", help="registered thermogym model (thermogym models)")
+    src.add_argument("--external", type=Path, help="TOML/YAML configuration of an external model")
+    p.add_argument("data", nargs="+", type=Path, help="recordings (CSV/Parquet) or folders of them")
+    p.add_argument("--out", type=Path, required=True, help="FitResult JSON to write")
+    p.add_argument("--effects", nargs="*", default=[], help="physical effects of --model")
+    p.add_argument(
+        "--free",
+        action="append",
+        default=[],
+        metavar="NAME[=LO:HI[:START]]",
+        help="parameter to fit (default bounds/start: the model's); repeatable",
+    )
+    p.add_argument(
+        "--fix",
+        "--set",
+        dest="fix",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="parameter set manually (not fitted); repeatable",
+    )
+    p.add_argument(
+        "--ratio",
+        action="append",
+        default=[],
+        metavar="NAME=TARGET[,TARGET...][:LO:HI]",
+        help="ratio on the physical estimates of the targets, 1 at the start (paper 000)",
+    )
+    p.add_argument(
+        "--log", action="append", default=[], metavar="NAME", help="search NAME on a log scale"
+    )
+    p.add_argument(
+        "--pair",
+        action="append",
+        default=[],
+        metavar="MEASURED[:SIMULATED][@WEIGHT]",
+        help="signal pair of the criterion (eq 4); default: every measured model output",
+    )
+    p.add_argument("--objective", choices=("rmse", "mse"), default="rmse")
+    stop = p.add_argument_group("stop criteria (any one ends the run)")
+    stop.add_argument("--max-iter", type=int)
+    stop.add_argument("--max-evals", type=int)
+    stop.add_argument("--time-limit", type=float, metavar="SECONDS")
+    stop.add_argument("--target", type=float, help="quality limit on the criterion")
+    m = p.add_argument_group("method options")
+    m.add_argument("--seed", type=int, default=0)
+    m.add_argument("--jac", choices=("auto", "fd", "exact"), help="greybox: Jacobian")
+    m.add_argument("--diff", choices=("forward", "central"), help="greybox: finite differences")
+    m.add_argument("--solver", choices=("trf", "dogbox", "lm"), help="greybox: scipy solver")
+    m.add_argument("--samples", type=int, help="montecarlo: parameter sets")
+    m.add_argument("--batch-size", type=int, help="montecarlo: sets per batch")
+    m.add_argument("--sampler", choices=("uniform", "sobol", "lhs"), help="montecarlo")
+    m.add_argument("--chains", type=int, help="anneal: chains per batch")
+    m.add_argument("--popsize", type=int, help="evolution/cmaes: population")
+    m.add_argument("--sigma0", type=float, help="cmaes: initial step (unit coordinates)")
+    m.add_argument("--polish", action="store_true", help="refine a global result with greybox")
+    m.add_argument("--level", type=float, default=0.95, help="confidence level of the intervals")
+    m.add_argument(
+        "--input-noise",
+        action="append",
+        default=[],
+        metavar="COLUMN[=SIGMA]",
+        help="noise of a measured input that drives the simulation (sensor sigma, or "
+        "estimated from the data when omitted); its effect enters the intervals",
+    )
+    ext = p.add_argument_group("external models")
+    ext.add_argument(
+        "--backend",
+        choices=("local", "process", "serial", "ray"),
+        help="evaluation of non-batched external models: local processes (default; 'local' "
+        "and 'process' are the same), in this process ('serial'), or a Ray cluster",
+    )
+    ext.add_argument("--workers", type=int, help="parallel processes")
+    out = p.add_argument_group("output")
+    out.add_argument("--validate", nargs="+", type=Path, default=[], help="validation recordings")
+    out.add_argument("--history", type=Path, help="write the search history (JSON)")
+    out.add_argument("--plot", type=Path, help="write a PNG of measured vs simulated signals")
+    out.add_argument("--no-progress", action="store_true", help="no progress bar")
+    out.add_argument("--no-overwrite", action="store_true", help="refuse to replace --out")
+    return p
+
+
+def _recordings(paths: list[Path]) -> list[Any]:
+    from thermogym.recording import CSV_SUFFIXES, PARQUET_SUFFIXES, read_recording
+
+    files: list[Path] = []
+    for path in paths:
+        if path.is_dir():
+            manifest = path / "manifest.json"
+            if manifest.exists():
+                try:
+                    doc = json.loads(manifest.read_text(encoding="utf-8"))
+                    files += [path / e["file"] for e in doc["recordings"]]
+                except (ValueError, KeyError, TypeError) as e:
+                    raise ConfigError(f"cannot read {manifest}: {e}") from e
+            else:
+                found = sorted(
+                    f
+                    for f in path.iterdir()
+                    if any(f.name.endswith(s) for s in (*CSV_SUFFIXES, *PARQUET_SUFFIXES))
+                )
+                if not found:
+                    raise ConfigError(f"folder {str(path)!r} holds no CSV or Parquet recording")
+                files += found
+        else:
+            if not path.exists():
+                raise ConfigError(f"recording {str(path)!r} does not exist")
+            files.append(path)
+    return [read_recording(f) for f in files]
+
+
+def _number(text: str, what: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise ConfigError(f"{what} is {text!r}, expected a number") from None
+
+
+def _free_specs(items: list[str], log: list[str]) -> dict[str, Any]:
+    from thermogym.identification.problem import FreeParameter
+
+    out: dict[str, Any] = {}
+    for item in items:
+        name, _, rng = item.partition("=")
+        name = name.strip()
+        kw: dict[str, Any] = {"scale": "log" if name in log else "linear"}
+        if rng:
+            parts = rng.split(":")
+            if len(parts) not in (2, 3):
+                raise ConfigError(f"--free {item!r}: expected NAME=LO:HI or NAME=LO:HI:START")
+            kw["lower"] = _number(parts[0], f"lower bound of {name!r}")
+            kw["upper"] = _number(parts[1], f"upper bound of {name!r}")
+            if len(parts) == 3:
+                kw["start"] = _number(parts[2], f"start of {name!r}")
+        out[name] = FreeParameter(name, **kw)
+    unknown_log = [n for n in log if n not in out]
+    if unknown_log and items:
+        raise ConfigError(f"--log names {unknown_log}, which are not given with --free")
+    return out
+
+
+def _pairs(items: list[str]) -> list[tuple[str, str, float]] | None:
+    if not items:
+        return None
+    out = []
+    for item in items:
+        body, _, w = item.partition("@")
+        meas, _, sim = body.partition(":")
+        weight = _number(w, f"weight of pair {item!r}") if w else 1.0
+        out.append((meas.strip(), (sim or meas).strip(), weight))
+    return out
+
+
+def _ratios(items: list[str]) -> list[Any]:
+    from thermogym.identification.problem import RatioParameter
+
+    out = []
+    for item in items:
+        name, eq, rest = item.partition("=")
+        if not eq or not rest:
+            raise ConfigError(f"--ratio {item!r}: expected NAME=TARGET[,TARGET...][:LO:HI]")
+        parts = rest.split(":")
+        targets = tuple(t.strip() for t in parts[0].split(",") if t.strip())
+        kw: dict[str, Any] = {}
+        if len(parts) == 3:
+            kw["lower"] = _number(parts[1], f"lower bound of ratio {name!r}")
+            kw["upper"] = _number(parts[2], f"upper bound of ratio {name!r}")
+        elif len(parts) != 1:
+            raise ConfigError(f"--ratio {item!r}: give both bounds, NAME=TARGETS:LO:HI")
+        out.append(RatioParameter(name.strip(), targets, **kw))
+    return out
+
+
+def _fixed(items: list[str]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        name, eq, value = item.partition("=")
+        if not eq:
+            raise ConfigError(f"--fix {item!r}: expected NAME=VALUE")
+        out[name.strip()] = _number(value, f"value of {name.strip()!r}")
+    return out
+
+
+def _external(args: argparse.Namespace) -> Any:
+    try:
+        from thermogym.identification.external import load_external
+    except ModuleNotFoundError as e:
+        if e.name and e.name.startswith("thermogym.identification.external"):
+            raise ConfigError(
+                "--external needs the external-model adapters "
+                "(thermogym.identification.external), which are not part of this build; "
+                "use --model with a thermogym model"
+            ) from e
+        raise
+    extra = {k: getattr(args, k) for k in ("backend", "workers") if getattr(args, k) is not None}
+    if extra.get("backend") == "local":
+        extra["backend"] = "process"
+    if extra:
+        params = inspect.signature(load_external).parameters
+        open_kw = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+        bad = [] if open_kw else [k for k in extra if k not in params]
+        if bad:
+            raise ConfigError(
+                f"load_external does not take {bad}; set them in the configuration file"
+            )
+    return load_external(args.external, **extra)
+
+
+def main(method: str, argv: list[str]) -> int:
+    """Run ``thermogym identify METHOD`` with the method's options ``argv``."""
+    if method not in _METHODS:
+        raise UnknownNameError(f"method {method!r} is not one of {list(_METHODS)}")
+    args = build_parser(method).parse_args(argv)
+    from thermogym.identification.coordinator import run_identification
+    from thermogym.identification.problem import Problem
+
+    options: dict[str, Any] = {}
+    for cli, (opt, methods) in _METHOD_OPTIONS.items():
+        v = getattr(args, cli)
+        if v is None:
+            continue
+        if method not in methods:
+            flag = "--" + cli.replace("_", "-")
+            raise ConfigError(f"option {flag} does not apply to method {method!r}")
+        options[opt] = v
+    if args.polish and method == "greybox":
+        raise ConfigError("--polish refines a global method; greybox is already local")
+    if args.external is not None and args.effects:
+        raise ConfigError("--effects applies to --model, not to --external")
+    if args.external is None and (args.backend or args.workers):
+        raise ConfigError("--backend/--workers apply to --external models")
+    if args.external is not None:
+        model = _external(args)
+    else:
+        from thermogym.models.registry import get_model
+
+        model = get_model(args.model, **({"effects": list(args.effects)} if args.effects else {}))
+    recs = _recordings(args.data)
+    free = _free_specs(args.free, args.log) or None
+    if free is None and args.log:
+        raise ConfigError("--log needs the parameters given with --free")
+    problem = Problem(
+        model,
+        recs,
+        pairs=_pairs(args.pair),
+        free=free,
+        ratios=_ratios(args.ratio),
+        fixed=_fixed(args.fix),
+        objective=args.objective,
+    )
+    noise: dict[str, float] = {}
+    for item in args.input_noise:
+        col, eq, sigma = item.partition("=")
+        if eq:
+            noise[col.strip()] = _number(sigma, f"noise of {col.strip()!r}")
+        else:
+            from thermogym.identification.uncertainty import estimate_input_noise
+
+            noise.update(estimate_input_noise(recs, [col.strip()]))
+    try:
+        result = run_identification(
+            problem,
+            method,
+            seed=args.seed,
+            max_iter=args.max_iter,
+            max_evals=args.max_evals,
+            time_limit=args.time_limit,
+            target=args.target,
+            progress=False if args.no_progress else None,
+            level=args.level,
+            polish=args.polish,
+            validation=_recordings(args.validate) if args.validate else None,
+            input_noise=noise or None,
+            **options,
+        )
+    finally:
+        close = getattr(model, "close", None)
+        if args.external is not None and callable(close):
+            close()
+    path = result.fit.save(args.out, overwrite=not args.no_overwrite)
+    if args.history is not None:
+        result.save_history(args.history)
+    if args.plot is not None:
+        from thermogym.identification.coordinator_plots import plot_fit
+
+        plot_fit(result, args.plot)
+    print(result.summary())
+    if result.failed:
+        top = sorted(result.failure_messages.items(), key=lambda kv: -kv[1])[:3]
+        print(
+            f"{result.failed} parameter set(s) failed; e.g. "
+            + "; ".join(f"{m} ({n}x)" for m, n in top),
+            file=sys.stderr,
+        )
+    print(f"wrote {path}")
+    return 0
