@@ -1,0 +1,107 @@
+"""Compiled helpers shared by the environment step kernels.
+
+Measurement model of every observed channel ``j`` (rows of the ``meas``
+array: σ, quantisation step, lower and upper sensor range, offset, drift per
+hour)::
+
+    y = clip(q(v + offset + drift · t_h + σ z), lo, hi),   q(v) = res · round(v / res)
+
+with ``z`` a pre-drawn standard normal. A real transmitter saturates at the
+ends of its range, which is also what keeps observations inside the
+observation space.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from thermogym.envs.kpis import tp_update
+
+__all__ = [
+    "M_DRIFT",
+    "M_HI",
+    "M_LO",
+    "M_OFF",
+    "M_RES",
+    "M_SIG",
+    "cache_depends_on",
+    "meas_array",
+    "measure",
+    "tp_push",
+]
+
+M_SIG, M_RES, M_LO, M_HI, M_OFF, M_DRIFT = range(6)
+
+
+def cache_depends_on(dispatcher: Any, *modules: ModuleType) -> Any:
+    """Make a cached numba kernel's on-disk cache also depend on ``modules``.
+
+    numba keys a cached function on its own source file only, but a kernel
+    that calls compiled functions of other modules (the models' step
+    functions) contains a copy of their machine code: after an edit of a model
+    the stale kernel would still be loaded. numba has no option for this (its
+    cache index compares one "source stamp"), so the stamp is replaced here by
+    a hash over the kernel's own stamp and the dependencies' sources. Should
+    numba's internals change, caching is switched off for the kernel instead:
+    slower start, never stale code.
+    """
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    if cache_file is None or not hasattr(cache_file, "_source_stamp"):
+        if hasattr(dispatcher, "disable_caching"):
+            dispatcher.disable_caching()
+        return dispatcher
+    h = hashlib.sha256(repr(cache_file._source_stamp).encode())
+    for m in modules:
+        h.update(Path(str(m.__file__)).read_bytes())
+    cache_file._source_stamp = h.digest()
+    return dispatcher
+
+
+def meas_array(
+    sens: NDArray[np.float64],
+    lo: NDArray[np.floating],
+    hi: NDArray[np.floating],
+    offset: NDArray[np.float64] | None = None,
+    drift: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """Stack the measurement rows (σ, res, lo, hi, offset, drift) into one (6, n) array."""
+    n = len(lo)
+    out = np.zeros((6, n))
+    k = sens.shape[1]
+    out[M_SIG, :k] = sens[0]
+    out[M_RES, :k] = sens[1]
+    out[M_LO] = lo
+    out[M_HI] = hi
+    if offset is not None:
+        out[M_OFF] = offset
+    if drift is not None:
+        out[M_DRIFT] = drift
+    return out
+
+
+@nb.njit(cache=True, inline="always")
+def measure(v: float, meas: NDArray[np.float64], j: int, z: float, t_h: float) -> float:
+    """Measured value of channel ``j`` (see the module docstring)."""
+    y = v + meas[M_OFF, j] + meas[M_DRIFT, j] * t_h + meas[M_SIG, j] * z
+    r = meas[M_RES, j]
+    if r > 0.0:
+        y = r * math.floor(y / r + 0.5)
+    return min(max(y, meas[M_LO, j]), meas[M_HI, j])
+
+
+@nb.njit(cache=True, inline="always")
+def tp_push(st: NDArray[np.float64], v: float, h: float, buf: NDArray[np.float64], n: int) -> int:
+    """Feed ``v`` to a turning-point tracker and append a confirmed point to ``buf``."""
+    tp = tp_update(st, v, h)
+    if not math.isnan(tp):
+        buf[n] = tp
+        return n + 1
+    return n

@@ -1,0 +1,222 @@
+"""Engine base of the machine-tool environments (spindle, strut): linear thermal plants.
+
+The spindle and strut plants are linear in their states and inputs (thermal
+RC networks, eq 13 of ``000_24627a5308ee07db.txt``, or the N4SID state space
+of ``001_6d13a2cd04f5de5e.txt`` eq 3), so one control period is an exact
+zero-order-hold update::
+
+    x[k+1] = A_d x[k] + B_d u[k],     y[k] = H x[k] + D u[k] + h_0
+
+with ``(A_d, B_d)`` from :meth:`ThermalNetworkModel.discrete` (matrix
+exponential) or from the state-space matrices raised to the control period.
+The step kernels do this update in compiled code; the matrices are computed
+once per parameter set.
+
+A network with nonlinear effects (``plant="rig"`` with
+``input_nonlinearity``, ``input_dependent_heat_transfer``,
+``nonlinear_heat_transfer``, ``time_varying_parameter``) is advanced instead
+by the network's own compiled fixed-step RK4 kernel
+(:func:`thermogym.models.thermal_network._rk4_kernel`) before the step kernel
+measures and rewards.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numba as nb
+import numpy as np
+from numpy.typing import NDArray
+
+from thermogym.envs._base import C_K, Engine
+from thermogym.envs._plant import Plant
+from thermogym.errors import ConfigError
+from thermogym.models import thermal_network as _tn
+from thermogym.models.linear import StateSpaceModel
+from thermogym.models.thermal_network import ThermalNetworkModel
+
+__all__ = ["LTIEngine", "lti_update"]
+
+
+@nb.njit(cache=True, inline="always")
+def lti_update(x, u, Ad, Bd, tmp):  # pragma: no cover - numba
+    """``x ← A_d x + B_d u`` for one plant (``tmp`` is scratch of length n)."""
+    n = x.shape[0]
+    for i in range(n):
+        s = 0.0
+        for j in range(n):
+            s += Ad[i, j] * x[j]
+        for j in range(u.shape[0]):
+            s += Bd[i, j] * u[j]
+        tmp[i] = s
+    for i in range(n):
+        x[i] = tmp[i]
+
+
+@nb.njit(cache=True, inline="always")
+def lti_output(x, u, H, D, h0, i):  # pragma: no cover - numba
+    """Output ``i`` of ``y = H x + D u + h_0``."""
+    s = h0[i]
+    for j in range(x.shape[0]):
+        s += H[i, j] * x[j]
+    for j in range(u.shape[0]):
+        s += D[i, j] * u[j]
+    return s
+
+
+class LTIEngine(Engine):
+    """Engine of a linear thermal plant; subclasses add actions, KPIs and rewards.
+
+    Parameters
+    ----------
+    B : int
+    plant : Plant
+    outputs : sequence of str
+        Model outputs the environment needs, in kernel order.
+    inputs : tuple of (str, str)
+        Names of the manipulated input and of the ambient disturbance.
+    dt : float
+        Control period [s].
+    n_acc : int
+        Accumulator floats per plant.
+    """
+
+    def __init__(
+        self,
+        B: int,
+        plant: Plant,
+        outputs: Sequence[str],
+        inputs: tuple[str, str],
+        dt: float,
+        n_acc: int,
+    ) -> None:
+        super().__init__(B, plant, n_acc)
+        m = plant.model
+        self._dt_ctrl = float(dt)
+        missing = [o for o in outputs if o not in m.output_names]
+        if missing:
+            raise ConfigError(
+                f"{self.name}: the model {m.name!r} lacks output(s) {missing}; it has "
+                f"{list(m.output_names)}"
+            )
+        self.oidx = np.array([m.output_names.index(o) for o in outputs], dtype=np.int64)
+        exo = list(m.exogenous_names)
+        if inputs[0] not in exo:
+            raise ConfigError(
+                f"{self.name}: the model {m.name!r} has no input {inputs[0]!r}; exogenous "
+                f"signals are {exo}"
+            )
+        # a model without the ambient input predicts rises above ambient (prepared data)
+        self.ambient_added = inputs[1] not in exo
+        self.uidx = np.array(
+            [exo.index(inputs[0]), -1 if self.ambient_added else exo.index(inputs[1])],
+            dtype=np.int64,
+        )
+        if len(exo) != 2 - int(self.ambient_added):
+            raise ConfigError(
+                f"{self.name}: the model {m.name!r} has exogenous signals {exo}; expected "
+                f"{list(inputs)}"
+            )
+        nx = len(m.state_names)
+        ny = len(outputs)
+        self.x = np.zeros((B, nx))
+        self.Ad = np.zeros((B, nx, nx))
+        self.Bd = np.zeros((B, nx, 2))
+        self.Hm = np.zeros((B, ny, nx))
+        self.Dm = np.zeros((B, ny, 2))
+        self.h0 = np.zeros((B, ny))
+        self.linear = np.ones(B, dtype=np.bool_)
+        self.all_linear = True
+        self.scratch = np.zeros((B, 2 + nx))  # per plant: u (2), then x scratch (n)
+        self._nets: dict[int, Any] = {}
+        if isinstance(m, StateSpaceModel):
+            r = self._dt_ctrl / m.dt
+            if abs(r - round(r)) > 1e-9 or round(r) < 1:
+                raise ConfigError(
+                    f"{self.name}: control_period {self._dt_ctrl} s is not a whole multiple of "
+                    f"the state-space model's sample period {m.dt} s"
+                )
+        elif not isinstance(m, ThermalNetworkModel):
+            raise ConfigError(f"{self.name}: model {m.name!r} is not a linear thermal model")
+
+    def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
+        m = self.model
+        if isinstance(m, StateSpaceModel):
+            mats = m.matrices(theta)
+            A, Bm, C, D = mats.A[0], mats.B[0], mats.C[0], mats.D[0]
+            steps = round(self._dt_ctrl / m.dt)
+            Ad = np.linalg.matrix_power(A, steps)
+            Bd = sum((np.linalg.matrix_power(A, i) for i in range(steps)), np.zeros_like(A)) @ Bm
+            H, h0 = C, np.zeros(C.shape[0])
+            self.linear[b] = True
+        else:
+            full = m._layout.full_theta(theta)  # type: ignore[attr-defined]
+            self.linear[b] = m._is_linear(full)  # type: ignore[attr-defined]
+            net = m.network(full)  # type: ignore[attr-defined]
+            H, h0, D = net.H, net.h0[0], np.zeros((net.H.shape[0], 2))
+            if self.linear[b]:
+                Ad3, Bd3, _ = m.discrete(theta, self._dt_ctrl)  # type: ignore[attr-defined]
+                Ad, Bd = Ad3[0], Bd3[0]
+            else:
+                Ad, Bd = np.eye(len(m.state_names)), np.zeros((len(m.state_names), 2))
+                self._nets[b] = (
+                    net,
+                    m._effect_values(full),  # type: ignore[attr-defined]
+                    m.rk4_substeps(net, self._dt_ctrl, self.u_max),  # type: ignore[attr-defined]
+                )
+        for j, col in enumerate(self.uidx):
+            if col >= 0:
+                self.Bd[b, :, j] = Bd[:, col]
+                self.Dm[b, :, j] = D[self.oidx, col]
+            else:
+                self.Bd[b, :, j] = 0.0
+                self.Dm[b, :, j] = 1.0  # outputs are rises: add the ambient
+        self.Ad[b] = Ad
+        self.Hm[b] = H[self.oidx]
+        self.h0[b] = h0[self.oidx]
+        self.all_linear = bool(self.linear.all())
+
+    #: Largest manipulated input (bounds the RK4 step of a nonlinear network).
+    u_max: float = 1.0
+
+    def rest_state(self, b: int, u0: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Steady state for constant exogenous ``u0 = [input, ambient]``."""
+        if not self.linear[b]:
+            # a network at rest: every node at the air temperature
+            return np.full(self.x.shape[1], float(u0[1]))
+        n = self.x.shape[1]
+        return np.linalg.solve(np.eye(n) - self.Ad[b], self.Bd[b] @ u0)
+
+    def advance_nonlinear(self, u: NDArray[np.float64]) -> None:
+        """RK4 step of the active plants whose network is nonlinear (``u``: (B, 2))."""
+        for b in np.flatnonzero(self.active & ~self.linear):
+            net, eff, nsub = self._nets[int(b)]
+            m = self.model
+            U = np.empty((1, 2, 2))
+            U[0, :, 0] = u[b, 0]
+            U[0, :, 1] = u[b, 1]
+            y = np.empty((1, 2, net.H.shape[0]))
+            xs = np.empty((1, 2, self.x.shape[1]))
+            _tn._rk4_kernel(
+                np.ascontiguousarray(net.C),
+                np.ascontiguousarray(net.G),
+                np.ascontiguousarray(net.g_amb),
+                np.ascontiguousarray(net.q),
+                eff,
+                float(m.u_ref),  # type: ignore[attr-defined]
+                float(m.dT_ref),  # type: ignore[attr-defined]
+                m._forced_mask,  # type: ignore[attr-defined]
+                np.ascontiguousarray(net.H),
+                np.ascontiguousarray(net.h0),
+                np.ascontiguousarray(self.x[b : b + 1]),
+                U,
+                np.zeros((1, 1, 1)),
+                float(self.ctr[b, C_K] * self._dt_ctrl),
+                self._dt_ctrl,
+                int(nsub),
+                y,
+                xs,
+                True,
+            )
+            self.x[b] = xs[0, 1]

@@ -1,0 +1,264 @@
+"""Which dynamics an environment runs: the identified model or the virtual rig.
+
+``params`` and ``plant`` of every environment are resolved here:
+
+* ``plant="model"`` (default): the identified model. ``params`` is a
+  :class:`~thermogym.fitresult.FitResult`, the path of its JSON file or its
+  dict (:func:`thermogym.fitresult.load_fit`); without it the package's
+  nominal parameters are used. The FitResult must be of a model the
+  environment can run (its name is checked, and its version by
+  :meth:`FitResult.build_model`).
+* ``plant="rig"``: the virtual test rig's true plant
+  (:meth:`thermogym.rigs.base.Rig.plant`): the model with the rig's physical
+  effects, its parameter overrides and one manufacturing specimen, measured
+  with the rig's sensors. Nothing of the rig's effects is visible to the
+  controller except through the measurements.
+
+Environments read FitResults through :mod:`thermogym.fitresult` only; they
+never import :mod:`thermogym.identification` (DESIGN.md dependency rule).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from thermogym.errors import ConfigError, ParameterError
+from thermogym.fitresult import FitResult, load_fit
+from thermogym.models.base import Model
+
+__all__ = ["ParamsLike", "Plant", "make_sampler", "resolve_plant"]
+
+ParamsLike = FitResult | str | os.PathLike[str] | Mapping[str, Any] | None
+PLANTS = ("model", "rig")
+SAMPLING = ("covariance", "bounds", "relative")
+
+
+@dataclass
+class Plant:
+    """Resolved dynamics of an environment.
+
+    Attributes
+    ----------
+    model : Model
+        The model whose step kernels the environment calls.
+    theta : ndarray, shape (1, P)
+        Parameter set of the episode when nothing randomises it.
+    kind : {"model", "rig"}
+    fit : FitResult
+        The FitResult the parameters come from (a nominal one built with
+        :meth:`FitResult.from_model` when none was given).
+    rig_effects : tuple of EffectSpec
+        Effects the rig carries (``plant="rig"`` only).
+    sensors : dict
+        Rig sensor specifications by signal name (``plant="rig"`` only).
+    """
+
+    model: Model
+    theta: NDArray[np.float64]
+    kind: str
+    fit: FitResult
+    rig_effects: tuple[Any, ...] = ()
+    sensors: dict[str, Any] = field(default_factory=dict)
+    rig: Any = None
+
+
+def load_params(params: ParamsLike, models: Sequence[str], env: str) -> FitResult | None:
+    """Load ``params`` and check that it is a FitResult of one of ``models``."""
+    if params is None:
+        return None
+    fit = load_fit(params)
+    if fit.model not in models:
+        raise ConfigError(
+            f"{env}: params is a FitResult of model {fit.model!r}; this environment runs "
+            f"model(s) {list(models)}"
+        )
+    return fit
+
+
+def resolve_plant(
+    env: str,
+    *,
+    params: ParamsLike,
+    plant: str,
+    models: Sequence[str],
+    default: Callable[[], Model] | ParamsLike,
+    rig: str | None,
+    rig_effects: Sequence[Any] = (),
+    rig_model: Callable[[Model, Sequence[str]], Model] | None = None,
+    specimen: Mapping[str, float] | None = None,
+) -> Plant:
+    """Resolve ``params`` / ``plant`` keywords into a :class:`Plant`.
+
+    Parameters
+    ----------
+    env : str
+        Environment name for messages.
+    params : FitResult, path, dict or None
+    plant : {"model", "rig"}
+    models : sequence of str
+        Model names the environment can run.
+    default : callable or FitResult-like
+        Nominal model factory, or the FitResult used when ``params`` is None.
+    rig : str or None
+        Rig name of :func:`thermogym.rigs.get_rig` (None: no rig).
+    rig_effects : sequence
+        ``NAME[:k=v,...]`` effects of the rig.
+    rig_model : callable, optional
+        ``rig_model(rig_plant_model, internal_effects) -> Model``: the model the
+        environment runs for the rig (e.g. the room around the rig's
+        actuator); default: the rig's own model.
+    specimen : mapping, optional
+        Parameter overrides of the rig's specimen (manufacturing spread).
+
+    Raises
+    ------
+    ConfigError
+        Unknown ``plant``, ``params`` with ``plant="rig"``, ``rig_effects``
+        with ``plant="model"``, no rig for this environment, a FitResult of
+        another model.
+    """
+    if plant not in PLANTS:
+        raise ConfigError(f"{env}: plant is {plant!r}; expected one of {PLANTS}")
+    if plant == "model":
+        if rig_effects:
+            raise ConfigError(
+                f"{env}: rig_effects {list(rig_effects)} apply to plant='rig' only; the "
+                "identified model has no concealed physics"
+            )
+        fit = load_params(params, models, env)
+        if fit is None and not callable(default):
+            fit = load_params(default, models, env)
+        if fit is None:
+            model = default()  # type: ignore[operator]
+            fit = FitResult.from_model(model, method="nominal", notes="package nominal values")
+        else:
+            model = fit.build_model()
+        return Plant(model, fit.theta(model), "model", fit)
+    if params is not None:
+        raise ConfigError(
+            f"{env}: params is given with plant='rig'; the rig is the true plant and has its "
+            "own parameters (use plant='model' to run a FitResult)"
+        )
+    if rig is None:
+        raise ConfigError(
+            f"{env}: there is no virtual rig for this plant (its real plant is physical "
+            "hardware); use plant='model'"
+        )
+    from thermogym.rigs import get_rig
+
+    r = get_rig(rig, rig_effects)
+    if specimen:
+        r = r.with_specimen(specimen)
+    base, overrides = r.plant()
+    model = base
+    if rig_model is not None:
+        internal = list(getattr(base, "effects", ()))
+        model = rig_model(base, internal)
+    overrides = {k: v for k, v in overrides.items() if k in model.param_names}
+    theta = model.theta(overrides)
+    fit = FitResult.from_model(model, theta[0], method="rig", notes=f"virtual rig {rig!r}")
+    return Plant(model, theta, "rig", fit, tuple(r.effects), dict(r.sensors), r)
+
+
+def make_sampler(
+    fit: FitResult,
+    model: Model,
+    method: str,
+    *,
+    scale: float = 1.0,
+    names: Sequence[str] | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+) -> Callable[[np.random.Generator], NDArray[np.float64]]:
+    """Build a parameter sampler ``sampler(rng) -> theta (1, P)`` for domain randomisation.
+
+    Parameters
+    ----------
+    fit : FitResult
+        Centre (and covariance / bounds) of the distribution.
+    model : Model
+        The model the parameter sets are for.
+    method : {"covariance", "bounds", "relative"}
+        ``"covariance"``: multivariate normal with the FitResult's covariance
+        or standard errors (:meth:`FitResult.sample`, ``"normal"``);
+        ``"bounds"``: uniform within the FitResult's bounds (or ``bounds``)
+        for the parameters ``names`` (default: those not fixed);
+        ``"relative"``: uniform within ``value · (1 ± scale)`` for ``names``.
+    scale : float
+        Standard-deviation multiplier (``"covariance"``) or relative
+        half-width (``"relative"``).
+    names : sequence of str, optional
+        Parameters to randomise (``"bounds"``, ``"relative"``).
+    bounds : mapping, optional
+        ``{name: (lower, upper)}`` replacing the FitResult's bounds (``"bounds"``).
+
+    Raises
+    ------
+    ConfigError
+        Unknown method.
+    ParameterError
+        Unknown names, nothing to randomise, or no valid draw in 20 attempts.
+    """
+    if method not in SAMPLING:
+        raise ConfigError(f"randomisation method is {method!r}; expected one of {SAMPLING}")
+    if not (np.isfinite(scale) and scale >= 0):
+        raise ParameterError(f"randomisation scale is {scale!r}; expected a number >= 0")
+    fit._check_model(model, check_version=False)
+    if names is not None:
+        unknown = [n for n in names if n not in model.param_names]
+        if unknown:
+            raise ParameterError(
+                f"cannot randomise {unknown}: not parameters of model {model.name!r} "
+                f"({list(model.param_names)})"
+            )
+    centre = model.theta(fit.parameters)[0]
+    if method == "covariance":
+        if fit.covariance is None and not any(np.isfinite(list(fit.stderr.values()))):
+            raise ParameterError(
+                "randomisation 'covariance' needs a FitResult with a covariance or standard "
+                "errors; this one has none (use 'bounds' or 'relative')"
+            )
+
+        def draw(rng: np.random.Generator) -> NDArray[np.float64]:
+            return model.theta(fit.sample(1, rng, method="normal", scale=scale))
+
+    else:
+        free = [n for n in (names or model.param_names) if n not in fit.fixed]
+        if method == "bounds":
+            src = {**fit.bounds, **dict(bounds or {})}
+            lohi = {n: src[n] for n in free if n in src and np.all(np.isfinite(src[n]))}
+            if bounds:
+                bad = [n for n in bounds if n not in model.param_names]
+                if bad:
+                    raise ParameterError(f"bounds name unknown parameter(s) {bad}")
+        else:
+            lohi = {}
+            for n in free:
+                v = centre[model.param_index(n)]
+                lohi[n] = (v - scale * abs(v), v + scale * abs(v))
+        if not lohi:
+            raise ParameterError(f"randomisation {method!r}: no parameter with finite bounds")
+        cols = np.array([model.param_index(n) for n in lohi], dtype=np.int64)
+        lo = np.array([lohi[n][0] for n in lohi])
+        hi = np.array([lohi[n][1] for n in lohi])
+
+        def draw(rng: np.random.Generator) -> NDArray[np.float64]:
+            th = centre.copy()
+            th[cols] = rng.uniform(lo, hi)
+            return model.theta(th)
+
+    def sampler(rng: np.random.Generator) -> NDArray[np.float64]:
+        last: Exception | None = None
+        for _ in range(20):  # a draw outside the physical domain is drawn again
+            try:
+                return draw(rng)
+            except ParameterError as e:
+                last = e
+        raise ParameterError(f"no valid parameter set in 20 draws; last: {last}") from last
+
+    return sampler

@@ -1,0 +1,795 @@
+"""AXT211Room: room temperature control through an AXT211-driven radiator valve.
+
+Description
+-----------
+Plant 4 of DESIGN.md, the application the AXT211 is built for
+(``002_dae2310635fe074e.txt``, section I): an office heated by a water
+radiator whose valve an AXT211 wax actuator moves
+(:class:`thermogym.models.room.RoomModel`: actuator eqs 14-21 of paper 002,
+radiator after EN 442-2, two-capacity zone after ISO 13790). The controller
+switches the actuator's heater — like a room thermostat does — to keep the
+zone inside the comfort band while the room is occupied, with little heat and
+actuator wear. The outdoor temperature, solar and internal gains and the
+occupancy schedule disturb it; episodes last a day (default) up to a year.
+
+Action Space
+------------
+As ``AXT211Valve``: ``action_mode="duty"`` (default), ``Box(-1, 1, (1,))``
+mapped to a PWM duty ``(a + 1)/2`` with the control period as PWM period, or
+``action_mode="onoff"``, ``Discrete(2)``.
+
+Observation Space
+-----------------
+``Box(float32)``, entries (:attr:`AXT211RoomEnv.obs_names`)::
+
+    0  T_zone     measured room temperature [°C] (thermostat sensor, 0..40)
+    1  T_set      set-point of the schedule for the next period [°C]
+    2  T_out      measured outdoor temperature [°C] (-40..45)
+    3  occupied   1 while the room is occupied in the next period, else 0
+    4  band_low   lower comfort limit now [°C]
+    5  band_high  upper comfort limit now [°C]
+    6  hour_sin   sin(2π · hour / 24) of the next period's start
+    7  hour_cos   cos(2π · hour / 24)
+    8  u_prev     duty applied in the last period (previous_action=True)
+
+Rewards
+-------
+Per control period (weights ``reward_weights``, defaults :data:`DEFAULT_WEIGHTS`)::
+
+    r_k = −( w_comfort   D_k       discomfort in the period [K·h] (occupied only)
+           + w_heat      H_k       heat delivered by the radiator [kWh]
+           + w_actuator  E_k       actuator electrical energy [Wh]
+           + w_switching s_k )     heater switch-on in the period (0/1)
+
+Starting State
+--------------
+A room that has been heated: zone air at ``initial_zone_C`` (drawn per
+episode), the structure at its steady state for that zone temperature and the
+first outdoor temperature, radiator at the zone temperature with the valve
+shut, actuator at rest at the zone temperature.
+
+Episode End
+-----------
+Termination: a safety trip — frost (zone below ``frost_C``, default 5 °C) or
+an overheated actuator (wax above ``trip_C``). Truncation: after
+``episode_days`` (default 1).
+
+Disturbances
+------------
+Weather: ``weather="synthetic"`` (:func:`thermogym.envs.profiles.synthetic_weather`,
+drawn per episode) or a weather file / Recording
+(:func:`thermogym.envs.weather.weather_table`, hourly, periodic). Occupancy:
+Monday to Friday (``occupied_days``) from ``occupied_hours[0]`` to
+``occupied_hours[1]``; internal gains ``gains_W`` (occupied, unoccupied) plus
+the solar gains. Day 0 of the year is a Monday. The start day is drawn in the
+heating season (1 October to 30 April) unless ``start_day`` is given.
+
+Arguments
+---------
+See :class:`RoomConfig`, plus ``render_mode``, ``render_path`` and ``record``.
+
+KPIs
+----
+``discomfort_Kh``, ``heat_delivered_kWh``, ``actuator_energy_Wh``,
+``switch_cycles``, ``stroke_travel_mm``, ``stroke_reversals``,
+``wax_thermal_cycles``, ``wax_damage``, ``time_above_limit_h`` (wax above
+``wax_limit_C``), ``episode_h``. Zone temperature and occupancy are sampled at
+the end of every period; energies are integrated by the trapezoidal rule on
+intervals of at most 10 s.
+
+Fast path
+---------
+:meth:`AXT211RoomEnv.run_compiled` runs a numba-compiled controller in a
+compiled loop over the same step kernel (same dynamics, noise and KPIs as
+``step()``, without the Python overhead per step): a year at 10 s steps takes
+seconds (``benchmarks/year.py``).
+
+Version History
+---------------
+* v0: initial release.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numba as nb
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from thermogym.envs import _kernels
+from thermogym.envs import kpis as _kpis
+from thermogym.envs._base import (
+    C_CUR,
+    C_K,
+    C_NTP,
+    NOISE_BLOCK,
+    Engine,
+    ThermoEnv,
+    ThermoVectorEnv,
+    build_config,
+    check_number,
+    check_range,
+    draw,
+    parse_noise,
+    parse_weights,
+    steps_of,
+)
+from thermogym.envs._kernels import cache_depends_on, meas_array, measure, tp_push
+from thermogym.envs._plant import ParamsLike, resolve_plant
+from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update
+from thermogym.envs.profiles import synthetic_weather
+from thermogym.errors import ConfigError
+from thermogym.models import axt211 as _ax
+from thermogym.models import room as _room
+from thermogym.models.room import RoomModel
+from thermogym.recording import Recording
+
+__all__ = ["DEFAULT_WEIGHTS", "AXT211RoomEnv", "AXT211RoomVectorEnv", "RoomConfig"]
+
+ENV = "AXT211Room"
+#: Default reward weights (see the module docstring).
+DEFAULT_WEIGHTS = {"comfort": 10.0, "heat": 1.0, "actuator": 0.1, "switching": 0.01}
+#: Sensor (σ, quantisation) of the observed channels.
+SENSORS = {"T_zone": (0.1, 0.1), "T_out": (0.2, 0.1)}
+_CH = ("T_zone", "T_out")
+_HEATING_SEASON = np.concatenate([np.arange(273, 365), np.arange(0, 120)])
+_STEPWISE_RIG_EFFECTS = ("backlash", "phase_change", "supply_variation", "nonlinear_heat_transfer")
+
+
+@dataclass
+class RoomConfig:
+    """Keyword arguments of ``thermogym/AXT211Room-v0``."""
+
+    params: ParamsLike = None
+    """FitResult of model ``room``; default nominal values."""
+    plant: str = "model"
+    """``"model"`` or ``"rig"`` (the room around the AXT211 rig's true actuator)."""
+    rig_effects: Sequence[str] = ()
+    """Actuator effects of the AXT211 rig (``plant="rig"``)."""
+    specimen_seed: int | None = 0
+    """Rig only: seed of the actuator specimen (None: nominal actuator)."""
+    valve: str = "linear"
+    """Valve characteristic of the room model (``"linear"``, ``"equal_percentage"``)."""
+    action_mode: str = "duty"
+    """``"duty"`` or ``"onoff"``."""
+    control_period: float = 10.0
+    """Control (and PWM) period [s]: the sampling of a room thermostat; for room-level RL
+    studies 300-900 s are typical (one step then integrates that many 1 s model steps)."""
+    episode_days: float = 1.0
+    """Episode length [days] (up to 366), a whole number of control periods."""
+    start_day: int | None = None
+    """Day of the year of the start (0 = 1 January, a Monday); None: drawn in the heating season."""
+    start_hour: float = 0.0
+    """Clock time of the start [h]."""
+    weather: str | os.PathLike[str] | Recording = "synthetic"
+    """``"synthetic"`` or a weather file / Recording (:mod:`thermogym.envs.weather`)."""
+    supply_V: float | tuple[float, float] = 24.0
+    """Actuator supply voltage [V] or a range drawn per episode."""
+    occupied_hours: tuple[float, float] = (7.0, 18.0)
+    """Occupancy from/to [h] on occupied days."""
+    occupied_days: int = 5
+    """Occupied days per week from Monday (5: Monday-Friday, 7: every day)."""
+    setpoints_C: tuple[float, float] = (21.0, 17.0)
+    """Thermostat set-point occupied / unoccupied [°C]."""
+    comfort_band_C: tuple[float, float] = (20.0, 24.0)
+    """Comfort band while occupied [°C] (discomfort is counted outside it)."""
+    setback_band_C: tuple[float, float] = (16.0, 28.0)
+    """Band shown in the observation while unoccupied [°C] (no discomfort counted)."""
+    gains_W: tuple[float, float] = (250.0, 40.0)
+    """Internal gains occupied / unoccupied [W] (people, equipment, lighting)."""
+    initial_zone_C: float | tuple[float, float] = (19.0, 22.0)
+    """Zone temperature at the start [°C], or a range drawn per episode."""
+    sensor_noise: bool | Mapping[str, float] = True
+    """Sensor noise; False: exact; a dict overrides σ of ``T_zone`` / ``T_out``."""
+    previous_action: bool = True
+    """Append the last applied duty to the observation."""
+    reward_weights: Mapping[str, float] | None = None
+    """Overrides of :data:`DEFAULT_WEIGHTS`."""
+    wax_limit_C: float = 85.0
+    """Wax temperature above which time counts in ``time_above_limit_h`` [°C]."""
+    trip_C: float = 110.0
+    """Wax temperature of the safety trip [°C]."""
+    frost_C: float = 5.0
+    """Zone temperature of the frost trip [°C]."""
+    cycle_hysteresis_K: float = 2.0
+    """Smallest wax-temperature cycle counted [K]."""
+    reversal_hysteresis_mm: float = 0.05
+    """Smallest stroke movement counted as a reversal [mm]."""
+    randomize: str | None = None
+    """Domain randomisation per episode: ``"covariance"``, ``"bounds"``, ``"relative"``."""
+    randomize_kwargs: Mapping[str, Any] | None = None
+    """``scale``, ``names``, ``bounds`` of the randomisation."""
+
+
+# cfg layout
+(
+    _T, _HMAX, _HOR, _AMODE, _KIND, _WC, _WH, _WA, _WS, _WLIM, _TRIP, _FROST, _HT, _HX,
+    _PREV, _OCC0, _OCC1, _OCCD, _SPO, _SPU, _BLO, _BHI, _SLO, _SHI, _GO, _GU,
+) = range(26)  # fmt: skip
+# acc layout
+_A_E, _A_Q, _A_SW, _A_TRAV, _A_ABOVE, _A_DISC, _A_ON, _A_UPREV, _A_QLAST = range(9)
+_A_TPT, _A_TPX = 9, 13
+_NACC = 17
+_OBS = (
+    "T_zone", "T_set", "T_out", "occupied", "band_low", "band_high", "hour_sin", "hour_cos",
+    "u_prev",
+)  # fmt: skip
+_SIG = (
+    "T_zone", "T_set", "band_low", "band_high", "T_out", "T_rad", "Q_heat", "x_V", "T_P",
+    "P_PTC", "duty", "occupied", "Q_int", "reward",
+)  # fmt: skip
+
+
+@nb.njit(cache=True, inline="always")
+def _table(tab, b, col, base, t):  # pragma: no cover - numba
+    # hourly table, linear interpolation, periodic in its length
+    n = tab.shape[2]
+    bb = b if tab.shape[0] > 1 else 0
+    H = t / 3600.0
+    i = math.floor(H)
+    f = H - i
+    j = int(i - base) % n
+    return tab[bb, col, j] * (1.0 - f) + tab[bb, col, (j + 1) % n] * f
+
+
+@nb.njit(cache=True, inline="always")
+def _occupied(t, cfg):  # pragma: no cover - numba
+    day = math.floor(t / 86400.0)
+    hour = (t - 86400.0 * day) / 3600.0
+    wd = day % 7
+    return wd < cfg[_OCCD] and cfg[_OCC0] <= hour < cfg[_OCC1]
+
+
+#: Longest interval of the trapezoidal energy integration [s] (a few RK4 steps).
+QUAD_S = 10.0
+
+
+@nb.njit(cache=True, inline="always")
+def _segment(xb, u, kU, Tout, Qint, pb, L, hmax, kind, iref, P0, Q0):  # pragma: no cover
+    # Advance one system over a segment of length L with the heater command u held, by the
+    # room model's RK4 steps (h <= max_step); P_PTC and Q_heat are integrated by the
+    # trapezoidal rule on intervals of at most QUAD_S seconds.
+    n = max(1, math.ceil(L / hmax - 1e-9))
+    h = L / n
+    m = max(1, int(QUAD_S / h + 1e-9))
+    E = 0.0
+    Q = 0.0
+    done = 0
+    while done < n:
+        s = min(m, n - done)
+        _room._advance(xb, u, kU, Tout, Qint, pb, h, s, kind)  # s RK4 steps of the room
+        P1 = _ax._power(xb[0], u, kU, pb)[0] if u > 0.0 else 0.0
+        Q1 = _room._emission(xb[4], xb[5], pb, iref)
+        E += 0.5 * (P0 + P1) * s * h
+        Q += 0.5 * (Q0 + Q1) * s * h
+        P0 = P1
+        Q0 = Q1
+        done += s
+    return E, Q, Q0
+
+
+@nb.njit(cache=True)
+def _room_row(
+    b, mode, act, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+):  # pragma: no cover - numba
+    # one plant: step (mode 0) or observe only (mode 1); returns 1 for an invalid action
+    T = cfg[_T]
+    hmax = cfg[_HMAX]
+    kind = int(cfg[_KIND])
+    xb = x[b]
+    pb = p[b]
+    kU = dist[b, 0]
+    t0 = dist[b, 1]
+    base = dist[b, 2]
+    k = ctr[b, 0]
+    ntp = ctr[b, 2]
+    st_T = acc[b, _A_TPT : _A_TPT + 4]
+    st_x = acc[b, _A_TPX : _A_TPX + 4]
+    d = 0.0
+    Pm = 0.0
+    Qm = 0.0
+    r = 0.0
+    t = t0 + k * T
+    if mode == 1:
+        ntp = tp_push(st_T, xb[0], cfg[_HT], tpbuf[b], ntp)
+        tp_update(st_x, xb[3], cfg[_HX])
+        acc[b, _A_QLAST] = _room._emission(xb[4], xb[5], pb, _room._inv_ref(pb))
+    else:
+        a = act[b, 0]
+        if cfg[_AMODE] == 1.0:
+            if a != 0.0 and a != 1.0:
+                ctr[b, 3] = 1
+                return 1
+            d = a
+        else:
+            if not math.isfinite(a):
+                ctr[b, 3] = 1
+                return 1
+            d = min(max(0.5 * (a + 1.0), 0.0), 1.0)
+        Tout = _table(tab, b, 0, base, t)
+        occ = _occupied(t, cfg)
+        Qint = (cfg[_GO] if occ else cfg[_GU]) + _table(tab, b, 1, base, t)
+        xV0 = xb[3]
+        iref = _room._inv_ref(pb)
+        E = 0.0
+        Qsum = 0.0
+        Q0 = acc[b, _A_QLAST]
+        ton = d * T
+        if ton > 0.0:
+            P0 = _ax._power(xb[0], 1.0, kU, pb)[0]
+            e1, q1, Q0 = _segment(xb, 1.0, kU, Tout, Qint, pb, ton, hmax, kind, iref, P0, Q0)
+            E += e1
+            Qsum += q1
+        toff = T - ton
+        if toff > 1e-9 * T:
+            _, q1, Q0 = _segment(xb, 0.0, kU, Tout, Qint, pb, toff, hmax, kind, iref, 0.0, Q0)
+            Qsum += q1
+        acc[b, _A_QLAST] = Q0
+        sw = 1.0 if (d > 0.0 and acc[b, _A_ON] == 0.0) else 0.0
+        acc[b, _A_ON] = 1.0 if d >= 1.0 else 0.0
+        TP = xb[0]
+        Tz = xb[5]
+        t1 = t + T
+        occ1 = _occupied(t1, cfg)
+        dev = 0.0
+        if occ1:
+            dev = max(cfg[_BLO] - Tz, Tz - cfg[_BHI], 0.0)
+        D = dev * T / 3600.0
+        Pm = E / T
+        Qm = Qsum / T
+        acc[b, _A_E] += E
+        acc[b, _A_Q] += Qsum
+        acc[b, _A_SW] += sw
+        acc[b, _A_TRAV] += abs(xb[3] - xV0)
+        acc[b, _A_DISC] += D
+        if TP > cfg[_WLIM]:
+            acc[b, _A_ABOVE] += T
+        ntp = tp_push(st_T, TP, cfg[_HT], tpbuf[b], ntp)
+        tp_update(st_x, xb[3], cfg[_HX])
+        r = -(cfg[_WC] * D + cfg[_WH] * Qsum / 3.6e6 + cfg[_WA] * E / 3600.0 + cfg[_WS] * sw)
+        k += 1
+        ctr[b, 0] = k
+        out[b, 0] = r
+        out[b, 1] = 1.0 if (TP > cfg[_TRIP] or Tz < cfg[_FROST]) else 0.0
+        out[b, 2] = 1.0 if k >= cfg[_HOR] else 0.0
+        acc[b, _A_UPREV] = d
+        t = t1
+    ctr[b, 2] = ntp
+    cur = ctr[b, 1]
+    z = noise[b, cur]
+    ctr[b, 1] = cur + 1
+    occ = _occupied(t, cfg)
+    Tout = _table(tab, b, 0, base, t)
+    t_h = k * T / 3600.0
+    obs[b, 0] = measure(xb[5], meas, 0, z[0], t_h)
+    obs[b, 1] = cfg[_SPO] if occ else cfg[_SPU]
+    obs[b, 2] = measure(Tout, meas, 1, z[1], t_h)
+    obs[b, 3] = 1.0 if occ else 0.0
+    obs[b, 4] = cfg[_BLO] if occ else cfg[_SLO]
+    obs[b, 5] = cfg[_BHI] if occ else cfg[_SHI]
+    hour = (t % 86400.0) / 3600.0
+    obs[b, 6] = math.sin(2.0 * math.pi * hour / 24.0)
+    obs[b, 7] = math.cos(2.0 * math.pi * hour / 24.0)
+    if cfg[_PREV] > 0.0:
+        obs[b, 8] = acc[b, _A_UPREV]
+    sig[b, 0] = xb[5]
+    sig[b, 1] = obs[b, 1]
+    sig[b, 2] = obs[b, 4]
+    sig[b, 3] = obs[b, 5]
+    sig[b, 4] = Tout
+    sig[b, 5] = xb[4]
+    sig[b, 6] = Qm
+    sig[b, 7] = xb[3]
+    sig[b, 8] = xb[0]
+    sig[b, 9] = Pm
+    sig[b, 10] = d
+    sig[b, 11] = obs[b, 3]
+    sig[b, 12] = (cfg[_GO] if occ else cfg[_GU]) + _table(tab, b, 1, base, t)
+    sig[b, 13] = r
+    return 0
+
+
+@nb.njit(cache=True)
+def _room_kernel(
+    mode, act, active, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+):  # pragma: no cover - numba
+    for b in range(x.shape[0]):
+        if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
+            return 2  # a turning-point buffer is full: grow it before any plant moves
+    status = 0
+    for b in range(x.shape[0]):
+        if active[b]:
+            s = _room_row(
+                b, mode, act, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+            )
+            status = max(status, s)
+    return status
+
+
+@nb.njit(cache=True, parallel=True)
+def _room_parallel(
+    mode, act, active, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+):  # pragma: no cover - numba
+    # one plant per thread; each writes only its own rows, so results equal the serial ones
+    for b in range(x.shape[0]):
+        if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
+            return 2
+    for i in nb.prange(x.shape[0]):
+        b = np.int64(i)  # the prange index is unsigned; keep index arithmetic signed
+        if active[b]:
+            _room_row(
+                b, mode, act, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+            )
+    for b in range(x.shape[0]):
+        if active[b] and ctr[b, 3] != 0:
+            return 1
+    return 0
+
+
+@nb.njit
+def _room_rollout(
+    ctrl,
+    cstate,
+    n,
+    act,
+    active,
+    x,
+    p,
+    dist,
+    tab,
+    acc,
+    tpbuf,
+    ctr,
+    noise,
+    meas,
+    cfg,
+    obs,
+    out,
+    sig,
+):  # pragma: no cover - numba
+    # compiled controller loop over the same step kernel (one plant)
+    total = 0.0
+    for i in range(n):
+        act[0, 0] = ctrl(obs[0], cstate)
+        status = _room_kernel(
+            0, act, active, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+        )
+        if status != 0:
+            return status, i, total
+        total += out[0, 0]
+        if out[0, 1] > 0.5 or out[0, 2] > 0.5:
+            return 0, i + 1, total
+    return 0, n, total
+
+
+for _k in (_room_row, _room_kernel, _room_parallel):
+    cache_depends_on(_k, _ax, _room, _kpis, _kernels)
+
+
+class _RoomEngine(Engine):
+    name = ENV
+    sig_names = _SIG
+    sig_units = ("°C", "°C", "°C", "°C", "°C", "°C", "W", "mm", "°C", "W", "1", "1", "W", "1")
+    noise_channels = _CH
+    panels = (
+        ("zone [°C]", ("T_zone", "T_set", "band_low", "band_high")),
+        ("outdoor [°C]", ("T_out",)),
+        ("radiator", ("T_rad", "x_V")),
+        ("heat [W]", ("Q_heat",)),
+        ("actuator", ("duty", "P_PTC", "T_P")),
+    )
+
+    def __init__(self, B: int, cfg: RoomConfig) -> None:
+        self.cfg = cfg
+        env = ENV
+        if cfg.action_mode not in ("duty", "onoff"):
+            raise ConfigError(f"{env}: action_mode is {cfg.action_mode!r}; 'duty' or 'onoff'")
+        self.obs_names = _OBS if cfg.previous_action else _OBS[:8]
+        units = ("°C", "°C", "°C", "1", "°C", "°C", "1", "1", "1")
+        self.obs_units = units[: len(self.obs_names)]
+        T = check_number(env, "control_period", cfg.control_period, lo=0.0, lo_open=True)
+        self._dt = T
+        days = check_number(env, "episode_days", cfg.episode_days, lo=0.0, hi=366.0, lo_open=True)
+        self._horizon = steps_of(env, "episode_days", days * 86400.0, T)
+        self.supply = check_range(env, "supply_V", cfg.supply_V, lo=0.0, hi=40.0)
+        self.zone0 = check_range(env, "initial_zone_C", cfg.initial_zone_C, lo=0.0, hi=40.0)
+        if cfg.start_day is not None:
+            check_number(env, "start_day", cfg.start_day, lo=0, hi=365)
+        self.start_hour = check_number(env, "start_hour", cfg.start_hour, lo=0.0, hi=24.0)
+        occ0, occ1 = check_range(env, "occupied_hours", cfg.occupied_hours, lo=0.0, hi=24.0)
+        occd = check_number(env, "occupied_days", cfg.occupied_days, lo=0, hi=7)
+        spo, spu = (check_number(env, "setpoints_C", v, lo=0.0, hi=40.0) for v in cfg.setpoints_C)
+        blo, bhi = check_range(env, "comfort_band_C", cfg.comfort_band_C, lo=0.0, hi=40.0)
+        slo, shi = check_range(env, "setback_band_C", cfg.setback_band_C, lo=0.0, hi=40.0)
+        go, gu = (check_number(env, "gains_W", v, lo=-5000.0, hi=5000.0) for v in cfg.gains_W)
+        w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
+        bad = [e for e in cfg.rig_effects if str(e).split(":")[0] not in _STEPWISE_RIG_EFFECTS]
+        if bad:
+            raise ConfigError(
+                f"{env}: rig effect(s) {bad} are not available step-wise in environments; "
+                f"available: {list(_STEPWISE_RIG_EFFECTS)}"
+            )
+        specimen = None
+        if cfg.plant == "rig" and cfg.specimen_seed is not None:
+            from thermogym.rigs.axt211 import specimen_spread
+
+            specimen = specimen_spread(np.random.default_rng(cfg.specimen_seed), n=1)[0]
+        plant = resolve_plant(
+            env,
+            params=cfg.params,
+            plant=cfg.plant,
+            models=("room",),
+            default=lambda: RoomModel(valve=cfg.valve),
+            rig="axt211",
+            rig_effects=cfg.rig_effects,
+            rig_model=lambda base, eff: RoomModel(valve=cfg.valve, effects=eff),
+            specimen=specimen,
+        )
+        super().__init__(B, plant, _NACC, tp_capacity=256)
+        model: RoomModel = plant.model  # type: ignore[assignment]
+        self.kind = 1.0 if model.valve == "equal_percentage" else 0.0
+        if isinstance(cfg.weather, str) and cfg.weather == "synthetic":
+            self.shared_tab: NDArray[np.float64] | None = None
+            n_h = math.ceil(self._horizon * T / 3600.0) + 26
+            self.tab = np.zeros((B, 2, n_h))
+        else:
+            from thermogym.envs.weather import weather_table
+
+            self.shared_tab = weather_table(cfg.weather)[None]
+            self.tab = self.shared_tab
+        sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)
+        lo, hi = self.obs_bounds()
+        self.meas = meas_array(sens, lo[[0, 2]], hi[[0, 2]])  # channels: T_zone, T_out
+        self.cfgv = np.array(
+            [
+                T, RoomModel.max_step, float(self._horizon),
+                1.0 if cfg.action_mode == "onoff" else 0.0, self.kind,
+                w["comfort"], w["heat"], w["actuator"], w["switching"],
+                check_number(env, "wax_limit_C", cfg.wax_limit_C),
+                check_number(env, "trip_C", cfg.trip_C),
+                check_number(env, "frost_C", cfg.frost_C),
+                check_number(env, "cycle_hysteresis_K", cfg.cycle_hysteresis_K, lo=0.0),
+                check_number(env, "reversal_hysteresis_mm", cfg.reversal_hysteresis_mm, lo=0.0),
+                1.0 if cfg.previous_action else 0.0,
+                occ0, occ1, float(occd), spo, spu, blo, bhi, slo, shi, go, gu,
+            ]
+        )  # fmt: skip
+        self.x = np.zeros((B, 7))
+        self.p = np.zeros((B, model.full_theta(plant.theta).shape[1]))
+        self.dist = np.zeros((B, 3))
+
+    @property
+    def dt(self) -> float:
+        return self._dt
+
+    @property
+    def horizon(self) -> int:
+        return self._horizon
+
+    def action_space(self) -> spaces.Space[Any]:
+        if self.cfg.action_mode == "onoff":
+            return spaces.Discrete(2)
+        return spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
+
+    def obs_bounds(self) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        lo = np.array([0.0, 0.0, -40.0, 0.0, 0.0, 0.0, -1.0, -1.0, 0.0], dtype=np.float32)
+        hi = np.array([40.0, 40.0, 45.0, 1.0, 40.0, 40.0, 1.0, 1.0, 1.0], dtype=np.float32)
+        n = len(self.obs_names)
+        return lo[:n], hi[:n]
+
+    def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
+        self.p[b] = self.model.full_theta(theta)[0]  # type: ignore[attr-defined]
+
+    def _reset_row(self, b: int, rng: np.random.Generator) -> None:
+        cfg = self.cfg
+        if cfg.start_day is None:
+            day = int(_HEATING_SEASON[rng.integers(_HEATING_SEASON.size)])
+        else:
+            day = int(cfg.start_day)
+        t0 = day * 86400.0 + self.start_hour * 3600.0
+        kU = draw(rng, self.supply)
+        Tz = draw(rng, self.zone0)
+        if self.shared_tab is None:
+            h0 = math.floor(t0 / 3600.0)
+            self.tab[b] = synthetic_weather(rng, h0, self.tab.shape[2])
+            base = float(h0)
+        else:
+            base = 0.0
+        self.dist[b] = (kU, t0, base)
+        # a heated room: structure at steady state for the zone temperature (zone node balance
+        # not imposed: the heating held it there), radiator and actuator at the zone temperature
+        H = self.tab.shape[2]
+        bb = b if self.tab.shape[0] > 1 else 0
+        j = int(math.floor(t0 / 3600.0) - base) % H
+        Tout = float(self.tab[bb, 0, j])
+        m = self.model
+        th = self.theta[b]
+        Has, Hso, f = (th[m.param_index(n)] for n in ("H_as", "H_so", "f_int"))
+        day_i = math.floor(t0 / 86400.0)
+        hour = (t0 - 86400.0 * day_i) / 3600.0
+        occ = (day_i % 7) < self.cfgv[_OCCD] and self.cfgv[_OCC0] <= hour < self.cfgv[_OCC1]
+        Q = (self.cfgv[_GO] if occ else self.cfgv[_GU]) + float(self.tab[bb, 1, j])
+        Ts = (Has * Tz + Hso * Tout + (1.0 - f) * Q) / (Has + Hso)
+        c = th[m.param_index("c_backlash")]
+        self.x[b] = (Tz, Tz, -c, 0.0, Tz, Tz, Ts)
+
+    def _kernel(self, mode: int) -> int:
+        kernel = _room_parallel if self.parallel and self.B > 1 else _room_kernel
+        return int(
+            kernel(
+                mode, self.act, self.active, self.x, self.p, self.dist, self.tab, self.acc,
+                self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv, self.obs, self.out,
+                self.sig,
+            )
+        )  # fmt: skip
+
+    def kpis(self, b: int) -> dict[str, float]:
+        a = self.acc[b]
+        tps = self.tpbuf[b, : self.ctr[b, C_NTP]]
+        last = tp_finish(a[_A_TPT : _A_TPT + 4].copy())
+        if not math.isnan(last):
+            tps = np.append(tps, last)
+        cycles = _rainflow_tp(tps, self.cfgv[_HT])
+        return {
+            "discomfort_Kh": float(a[_A_DISC]),
+            "heat_delivered_kWh": float(a[_A_Q] / 3.6e6),
+            "actuator_energy_Wh": float(a[_A_E] / 3600.0),
+            "switch_cycles": float(a[_A_SW]),
+            "stroke_travel_mm": float(a[_A_TRAV]),
+            "stroke_reversals": float(a[_A_TPX + 3]),
+            "wax_thermal_cycles": float(sum(c for _, c in cycles)),
+            "wax_damage": miner_damage(cycles),
+            "time_above_limit_h": float(a[_A_ABOVE] / 3600.0),
+            "episode_h": float(self.ctr[b, C_K] * self._dt / 3600.0),
+        }
+
+    def trip_reason(self, b: int) -> str:
+        if self.x[b, 5] < self.cfgv[_FROST]:
+            return f"frost: zone at {self.x[b, 5]:.1f} °C below frost_C = {self.cfgv[_FROST]} °C"
+        return f"wax temperature {self.x[b, 0]:.1f} °C above trip_C = {self.cfgv[_TRIP]} °C"
+
+    def rollout(
+        self,
+        controller: Callable[..., float],
+        state: NDArray[np.float64],
+        rng: np.random.Generator,
+        max_steps: int,
+    ) -> tuple[int, float]:
+        """Run ``controller`` compiled for up to ``max_steps``; steps done and reward sum."""
+        done_steps, total = 0, 0.0
+        self.active[:] = True
+        while done_steps < max_steps:
+            if self.ctr[0, C_CUR] >= NOISE_BLOCK:
+                self.refill(0, rng)
+            n = min(NOISE_BLOCK - int(self.ctr[0, C_CUR]), max_steps - done_steps)
+            if self.ctr[0, 2] + n >= self.tpbuf.shape[1] - 1:
+                self.tpbuf = np.concatenate([self.tpbuf, np.zeros_like(self.tpbuf)], axis=1)
+            status, i, r = _room_rollout(
+                controller, state, n, self.act, self.active, self.x, self.p, self.dist,
+                self.tab, self.acc, self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv,
+                self.obs, self.out, self.sig,
+            )  # fmt: skip
+            done_steps += int(i)
+            total += float(r)
+            if status != 0:
+                self._run(0)  # raises the error the kernel reported
+            if self.out[0, 1] > 0.5 or self.out[0, 2] > 0.5:
+                self.done[0] = True
+                break
+        return done_steps, total
+
+
+class AXT211RoomEnv(ThermoEnv):
+    """Room temperature control through the AXT211 valve (``thermogym/AXT211Room-v0``).
+
+    See the module docstring and :class:`RoomConfig`.
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> import thermogym.envs
+    >>> env = gym.make("thermogym/AXT211Room-v0", action_mode="onoff", start_day=10)
+    >>> obs, info = env.reset(seed=0)
+    >>> names = env.unwrapped.obs_names
+    >>> terminated = truncated = False
+    >>> while not (terminated or truncated):  # a thermostat with 0.5 K hysteresis
+    ...     T, T_set = obs[names.index("T_zone")], obs[names.index("T_set")]
+    ...     on = int(T < T_set - 0.25 or (T < T_set + 0.25 and obs[names.index("u_prev")] > 0))
+    ...     obs, r, terminated, truncated, info = env.step(on)
+    >>> sorted(info["kpis"])[:3]
+    ['actuator_energy_Wh', 'discomfort_Kh', 'episode_h']
+    >>> bool(info["kpis"]["heat_delivered_kWh"] > 1.0)
+    True
+    """
+
+    def __init__(
+        self,
+        *,
+        render_mode: str | None = None,
+        render_path: str | None = None,
+        record: bool | None = None,
+        **kwargs: Any,
+    ) -> None:
+        cfg = build_config(RoomConfig, ENV, kwargs)
+        self._setup(
+            _RoomEngine(1, cfg),
+            render_mode=render_mode,
+            render_path=render_path,
+            record=record,
+            randomize=cfg.randomize,
+            randomize_kwargs=cfg.randomize_kwargs,
+        )
+
+    def run_compiled(
+        self,
+        controller: Callable[..., float],
+        state: NDArray[np.float64] | None = None,
+        max_steps: int | None = None,
+    ) -> dict[str, Any]:
+        """Run a numba-compiled controller until the episode ends (no Python per step).
+
+        The loop calls the same step kernel as :meth:`step` (same dynamics,
+        noise stream and KPIs; the history is not recorded).
+
+        Parameters
+        ----------
+        controller : numba.njit function
+            ``controller(obs: float32[:], state: float64[:]) -> float``: the
+            action (0/1 for ``"onoff"``, [-1, 1] for ``"duty"``) from the
+            observation; it may keep memory in ``state``.
+        state : ndarray, optional
+            Controller memory (default ``np.zeros(4)``).
+        max_steps : int, optional
+            Stop after this many steps (default: until the episode ends).
+
+        Returns
+        -------
+        dict
+            ``steps``, ``reward`` (sum), ``terminated``, ``truncated`` and
+            ``kpis`` (the same as ``info["kpis"]``).
+        """
+        e: _RoomEngine = self._e  # type: ignore[assignment]
+        if e.done[0]:
+            raise ConfigError(f"{ENV}: the episode is over; call reset() before run_compiled()")
+        st = np.zeros(4) if state is None else np.ascontiguousarray(state, dtype=np.float64)
+        limit = e.horizon if max_steps is None else int(max_steps)
+        steps, total = e.rollout(controller, st, self._rngs[0], limit)
+        return {
+            "steps": steps,
+            "reward": total,
+            "terminated": bool(e.out[0, 1] > 0.5),
+            "truncated": bool(e.out[0, 2] > 0.5),
+            "kpis": e.kpis(0),
+        }
+
+
+class AXT211RoomVectorEnv(ThermoVectorEnv):
+    """``num_envs`` rooms stepped by one compiled call (native vector env).
+
+    Keyword arguments as :class:`RoomConfig`, plus ``num_envs`` and ``autoreset_mode``.
+    """
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        autoreset_mode: str = "NextStep",
+        parallel: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        n = int(check_number(ENV, "num_envs", num_envs, lo=1))
+        cfg = build_config(RoomConfig, ENV, kwargs)
+        self._setup(
+            _RoomEngine(n, cfg),
+            AXT211RoomEnv,
+            autoreset_mode=autoreset_mode,
+            randomize=cfg.randomize,
+            randomize_kwargs=cfg.randomize_kwargs,
+            parallel=parallel,
+        )

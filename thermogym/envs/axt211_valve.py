@@ -1,0 +1,652 @@
+"""AXT211Valve: position a valve with the AXT211 electrothermal actuator.
+
+Description
+-----------
+A SAUTER AXT211 wax-cartridge actuator (``002_dae2310635fe074e.txt``; model
+:class:`thermogym.models.axt211.AXT211`, eqs 14-21) pushes a valve stem. The
+controller switches the actuator's PTC heater and must make the valve stroke
+``x_V`` follow a set-point profile ``x_ref`` while using little energy and
+wearing the actuator little (switching, stroke travel, wax thermal cycles).
+The actuator is slow (about 5 min to open, 6 min to close at 25 °C) and
+asymmetric (heating is forced, cooling is passive, eq 16), has a backlash
+(20) and a stroke gain that depends on the stroke (21) — and specimens differ
+(section VIII): the reasons PWM control of it is hard.
+
+Action Space
+------------
+``action_mode="duty"`` (default): ``Box(-1, 1, (1,), float32)``, mapped to a
+PWM duty cycle ``d = (a + 1) / 2`` in [0, 1] (clipped). The PWM period is the
+control period: the heater is on for ``d · control_period`` at the start of
+the period and off for the rest. ``action_mode="onoff"``: ``Discrete(2)``,
+heater off (0) or on (1) for the whole control period.
+
+Observation Space
+-----------------
+``Box(float32)`` with the sensor ranges as bounds, entries
+(:attr:`AXT211ValveEnv.obs_names`)::
+
+    0  x_V     measured valve stroke [mm]           (noisy stroke sensor, -0.5..7)
+    1  T_G     measured housing temperature [°C]    (-30..150)
+    2  T_U     measured ambient temperature [°C]    (-30..80)
+    3  k_U     measured supply voltage [V]          (0..40)
+    4  x_ref   stroke set-point for the next period [mm] (0..7)
+    5  u_prev  duty applied in the last period [1]  (only with previous_action=True)
+
+The wax temperature and the cartridge stroke are not observed (no sensor in a
+real actuator).
+
+Rewards
+-------
+Per control period ``k`` (weights ``reward_weights``, defaults in
+:data:`DEFAULT_WEIGHTS`)::
+
+    r_k = −( w_tracking  |x_V − x_ref| / x_max
+           + w_energy    P̄_k / 10 W
+           + w_switching s_k
+           + w_travel    |Δx_V| / x_max )
+
+with ``x_V`` the true stroke at the end of the period, ``P̄_k`` the mean PTC
+power over the period, ``s_k`` 1 when the heater switched on in the period
+and ``x_max`` the stroke (4.5 mm nominal).
+
+Starting State
+--------------
+The actuator at rest (wax and housing at the ambient temperature, cartridge
+retracted, valve shut), as after a long time without power.
+
+Episode End
+-----------
+Termination: a safety trip when the wax temperature exceeds ``trip_C``
+(default 110 °C; the self-regulating PTC normally stays below 95 °C).
+Truncation: after ``episode_s`` (default 1 h).
+
+Arguments
+---------
+See :class:`ValveConfig` (every field is a keyword argument of
+``gymnasium.make("thermogym/AXT211Valve-v0", ...)``), plus ``render_mode``
+(``"rgb_array"``, ``"human"``), ``render_path`` and ``record``.
+
+KPIs (``info["kpis"]`` at the episode end; :mod:`thermogym.envs.kpis`)
+----------------------------------------------------------------------
+``actuator_energy_Wh``, ``switch_cycles``, ``stroke_travel_mm``,
+``stroke_reversals`` (hysteresis ``reversal_hysteresis_mm``),
+``wax_thermal_cycles`` and ``wax_damage`` (rainflow on T_P with
+``cycle_hysteresis_K``), ``time_above_limit_h`` (T_P above
+``wax_limit_C``), ``stroke_rmse_mm``, ``stroke_iae_mm_s``, ``episode_h``.
+Signals are sampled at the end of every control period; the energy is
+integrated by the trapezoidal rule on intervals of at most 10 s.
+
+Version History
+---------------
+* v0: initial release.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numba as nb
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import ArrayLike, NDArray
+
+from thermogym.envs import _kernels
+from thermogym.envs import kpis as _kpis
+from thermogym.envs._base import (
+    C_K,
+    C_NTP,
+    Engine,
+    ThermoEnv,
+    ThermoVectorEnv,
+    build_config,
+    check_number,
+    check_range,
+    draw,
+    parse_noise,
+    parse_weights,
+    steps_of,
+)
+from thermogym.envs._kernels import cache_depends_on, meas_array, measure, tp_push
+from thermogym.envs._plant import ParamsLike, resolve_plant
+from thermogym.envs.kpis import miner_damage, tp_finish, tp_update
+from thermogym.errors import ConfigError
+from thermogym.models import axt211 as _ax
+from thermogym.models.axt211 import AXT211
+
+__all__ = ["DEFAULT_WEIGHTS", "AXT211ValveEnv", "AXT211ValveVectorEnv", "ValveConfig"]
+
+ENV = "AXT211Valve"
+#: Default reward weights (see the module docstring).
+DEFAULT_WEIGHTS = {"tracking": 1.0, "energy": 0.05, "switching": 0.01, "travel": 0.0}
+_P_REF = 10.0  # W, normalises the energy term
+#: Sensor (σ, quantisation) of the observed channels with plant="model".
+SENSORS = {"x_V": (0.02, 0.001), "T_G": (0.1, 0.01), "T_U": (0.1, 0.01), "k_U": (0.05, 0.01)}
+_CH = ("x_V", "T_G", "T_U", "k_U")
+_STEPWISE_RIG_EFFECTS = (
+    "backlash",
+    "phase_change",
+    "supply_variation",
+    "nonlinear_heat_transfer",
+    "sensor_offset",
+    "sensor_drift",
+)
+
+
+@dataclass
+class ValveConfig:
+    """Keyword arguments of ``thermogym/AXT211Valve-v0``."""
+
+    params: ParamsLike = None
+    """FitResult (object, JSON path or dict) of model ``axt211``; default nominal values."""
+    plant: str = "model"
+    """``"model"``: the identified model; ``"rig"``: the virtual rig's true plant."""
+    rig_effects: Sequence[str] = ()
+    """Rig effects (``plant="rig"``), e.g. ``["phase_change", "backlash:c_backlash=0.3"]``."""
+    specimen_seed: int | None = 0
+    """Rig only: seed of the specimen drawn from the manufacturing spread (None: nominal)."""
+    action_mode: str = "duty"
+    """``"duty"`` (continuous PWM duty) or ``"onoff"``."""
+    control_period: float = 10.0
+    """Control (and PWM) period [s]."""
+    episode_s: float = 3600.0
+    """Episode length [s], a whole number of control periods."""
+    setpoint: str | float | ArrayLike = "random"
+    """``"random"`` (levels drawn per episode), a constant [mm] or one value per step [mm]."""
+    setpoint_range: tuple[float, float] = (0.5, 4.0)
+    """Range of the random set-point levels [mm]."""
+    setpoint_hold_s: float = 900.0
+    """Time each random level is held [s]."""
+    supply_V: float | tuple[float, float] = 24.0
+    """Supply voltage [V], or a range drawn per episode (paper: 19-29 V)."""
+    ambient_C: float | tuple[float, float] = 25.0
+    """Ambient temperature [°C], or a range drawn per episode (paper: 0-50 °C)."""
+    sensor_noise: bool | Mapping[str, float] = True
+    """Sensor noise on; False: exact measurements; a dict overrides σ per channel."""
+    previous_action: bool = True
+    """Append the last applied duty to the observation."""
+    reward_weights: Mapping[str, float] | None = None
+    """Overrides of :data:`DEFAULT_WEIGHTS`."""
+    wax_limit_C: float = 85.0
+    """Wax temperature above which time counts in ``time_above_limit_h`` [°C]."""
+    trip_C: float = 110.0
+    """Wax temperature of the safety trip (termination) [°C]."""
+    cycle_hysteresis_K: float = 2.0
+    """Smallest wax-temperature cycle counted [K]."""
+    reversal_hysteresis_mm: float = 0.05
+    """Smallest stroke movement that counts as a reversal [mm]."""
+    randomize: str | None = None
+    """Domain randomisation per episode: ``"covariance"``, ``"bounds"``, ``"relative"``."""
+    randomize_kwargs: Mapping[str, Any] | None = None
+    """``scale``, ``names``, ``bounds`` of the randomisation."""
+
+
+# cfg vector layout
+_T, _HMAX, _HOR, _AMODE, _HOLD, _WT, _WE, _WS, _WV, _PREF, _WLIM, _TRIP, _HT, _HX, _PREV = range(15)
+# acc layout
+_A_E, _A_SW, _A_TRAV, _A_ABOVE, _A_IAE, _A_SSE, _A_N, _A_ON, _A_UPREV = range(9)
+_A_TPT = 9  # wax-temperature tracker (4)
+_A_TPX = 13  # stroke tracker (4)
+_NACC = 17
+_OBS = ("x_V", "T_G", "T_U", "k_U", "x_ref", "u_prev")
+_SIG = ("x_V", "x_ref", "T_P", "T_G", "T_U", "k_U", "P_PTC", "duty", "reward")
+
+
+@nb.njit(cache=True, inline="always")
+def _segments(d, T, hmax):  # pragma: no cover - numba
+    # PWM within the period: on for d·T, then off; each part in RK4 steps of at most hmax
+    ton = d * T
+    toff = T - ton
+    n_on = math.ceil(ton / hmax - 1e-9) if ton > 0.0 else 0
+    n_off = math.ceil(toff / hmax - 1e-9) if toff > 1e-9 * T else 0
+    h_on = ton / n_on if n_on > 0 else 0.0
+    h_off = toff / n_off if n_off > 0 else 0.0
+    return n_on, h_on, n_off, h_off
+
+
+@nb.njit(cache=True, inline="always")
+def _action(b, act, cfg, ctr):  # pragma: no cover - numba
+    # duty in [0, 1] of plant b, or -1 for an invalid action
+    a = act[b, 0]
+    if cfg[_AMODE] == 1.0:
+        if a != 0.0 and a != 1.0:
+            ctr[b, 3] = 1
+            return -1.0
+        return a
+    if not math.isfinite(a):
+        ctr[b, 3] = 1
+        return -1.0
+    return min(max(0.5 * (a + 1.0), 0.0), 1.0)
+
+
+#: Longest interval of the trapezoidal energy integration [s] (RK4 steps are 1 s at most).
+QUAD_S = 10.0
+
+
+@nb.njit(cache=True)
+def _dyn_scalar(xb, d, kU, TU, pb, T, hmax):  # pragma: no cover - numba
+    # One plant over one control period by the model's RK4 step (physical effects included):
+    # on for d·T, then off. P_PTC is integrated by the trapezoidal rule on intervals of at
+    # most QUAD_S (a few RK4 steps; within 0.5 % of a 0.1 s quadrature, see the tests).
+    # Returns the energy [J].
+    n_on, h_on, n_off, h_off = _segments(d, T, hmax)
+    E = 0.0
+    if n_on > 0:
+        m = max(1, int(QUAD_S / h_on + 1e-9))
+        P0 = _ax._power(xb[0], 1.0, kU, pb)[0]
+        done = 0
+        while done < n_on:
+            s = min(m, n_on - done)
+            _ax._advance(xb, 1.0, kU, TU, pb, h_on, s)  # (17)-(21), s RK4 steps
+            P1 = _ax._power(xb[0], 1.0, kU, pb)[0]  # (15)
+            E += 0.5 * (P0 + P1) * s * h_on
+            P0 = P1
+            done += s
+    if n_off > 0:
+        _ax._advance(xb, 0.0, kU, TU, pb, h_off, n_off)
+    return E
+
+
+@nb.njit(cache=True)
+def _valve_post(
+    b,
+    mode,
+    d,
+    E,
+    xV0,
+    TP,
+    TG,
+    xV,
+    xmax,
+    dist,
+    sp,
+    acc,
+    tpbuf,
+    ctr,
+    noise,
+    meas,
+    cfg,
+    obs,
+    out,
+    sig,
+):  # pragma: no cover - numba
+    # KPIs, reward and measurement of plant b after its step (mode 0) or at the start (1)
+    T = cfg[_T]
+    hold = int(cfg[_HOLD])
+    nseg = sp.shape[1]
+    kU = dist[b, 0]
+    TU = dist[b, 1]
+    k = ctr[b, 0]
+    ntp = ctr[b, 2]
+    st_T = acc[b, _A_TPT : _A_TPT + 4]
+    st_x = acc[b, _A_TPX : _A_TPX + 4]
+    Pm = 0.0
+    r = 0.0
+    if mode == 1:
+        # episode start: first samples of the trackers
+        ntp = tp_push(st_T, TP, cfg[_HT], tpbuf[b], ntp)
+        tp_update(st_x, xV, cfg[_HX])
+    else:
+        sw = 1.0 if (d > 0.0 and acc[b, _A_ON] == 0.0) else 0.0
+        acc[b, _A_ON] = 1.0 if d >= 1.0 else 0.0
+        e = xV - sp[b, min(k // hold, nseg - 1)]
+        dx = abs(xV - xV0)
+        Pm = E / T
+        acc[b, _A_E] += E
+        acc[b, _A_SW] += sw
+        acc[b, _A_TRAV] += dx
+        acc[b, _A_IAE] += abs(e) * T
+        acc[b, _A_SSE] += e * e
+        acc[b, _A_N] += 1.0
+        if TP > cfg[_WLIM]:
+            acc[b, _A_ABOVE] += T
+        ntp = tp_push(st_T, TP, cfg[_HT], tpbuf[b], ntp)
+        tp_update(st_x, xV, cfg[_HX])
+        r = -(
+            cfg[_WT] * abs(e) / xmax
+            + cfg[_WE] * Pm / cfg[_PREF]
+            + cfg[_WS] * sw
+            + cfg[_WV] * dx / xmax
+        )
+        k += 1
+        ctr[b, 0] = k
+        out[b, 0] = r
+        out[b, 1] = 1.0 if TP > cfg[_TRIP] else 0.0
+        out[b, 2] = 1.0 if k >= cfg[_HOR] else 0.0
+        acc[b, _A_UPREV] = d
+    ctr[b, 2] = ntp
+    # measurement of the state after the step (or at the start)
+    cur = ctr[b, 1]
+    z = noise[b, cur]
+    ctr[b, 1] = cur + 1
+    t_h = k * T / 3600.0
+    obs[b, 0] = measure(xV, meas, 0, z[0], t_h)
+    obs[b, 1] = measure(TG, meas, 1, z[1], t_h)
+    obs[b, 2] = measure(TU, meas, 2, z[2], t_h)
+    obs[b, 3] = measure(kU, meas, 3, z[3], t_h)
+    obs[b, 4] = sp[b, min(k // hold, nseg - 1)]
+    if cfg[_PREV] > 0.0:
+        obs[b, 5] = acc[b, _A_UPREV]
+    sig[b, 0] = xV
+    sig[b, 1] = sp[b, min(max(k - 1, 0) // hold, nseg - 1)]
+    sig[b, 2] = TP
+    sig[b, 3] = TG
+    sig[b, 4] = TU
+    sig[b, 5] = kU
+    sig[b, 6] = Pm
+    sig[b, 7] = d
+    sig[b, 8] = r
+
+
+@nb.njit(cache=True)
+def _valve_kernel(
+    mode, act, active, x, p, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+):  # pragma: no cover - numba
+    for b in range(x.shape[0]):
+        if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
+            return 2  # a turning-point buffer is full: grow it before any plant moves
+    status = 0
+    for b in range(x.shape[0]):
+        if not active[b]:
+            continue
+        xb = x[b]
+        d, E, xV0 = 0.0, 0.0, xb[3]
+        if mode == 0:
+            d = _action(b, act, cfg, ctr)
+            if d < 0.0:
+                status = 1
+                continue
+            E = _dyn_scalar(xb, d, dist[b, 0], dist[b, 1], p[b], cfg[_T], cfg[_HMAX])
+        _valve_post(
+            b, mode, d, E, xV0, xb[0], xb[1], xb[3], p[b, _ax._I_XMAX], dist, sp, acc, tpbuf,
+            ctr, noise, meas, cfg, obs, out, sig,
+        )  # fmt: skip
+    return status
+
+
+@nb.njit(cache=True, parallel=True)
+def _valve_parallel(
+    mode, act, active, x, p, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+):  # pragma: no cover - numba
+    # one plant per thread; each writes only its own rows, so results equal the serial ones
+    for b in range(x.shape[0]):
+        if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
+            return 2
+    for i in nb.prange(x.shape[0]):
+        b = np.int64(i)  # the prange index is unsigned; keep index arithmetic signed
+        if not active[b]:
+            continue
+        xb = x[b]
+        d, E, xV0 = 0.0, 0.0, xb[3]
+        if mode == 0:
+            d = _action(b, act, cfg, ctr)
+            if d < 0.0:
+                continue
+            E = _dyn_scalar(xb, d, dist[b, 0], dist[b, 1], p[b], cfg[_T], cfg[_HMAX])
+        _valve_post(
+            b, mode, d, E, xV0, xb[0], xb[1], xb[3], p[b, _ax._I_XMAX], dist, sp, acc, tpbuf,
+            ctr, noise, meas, cfg, obs, out, sig,
+        )  # fmt: skip
+    for b in range(x.shape[0]):
+        if active[b] and ctr[b, 3] != 0:
+            return 1
+    return 0
+
+
+for _k in (_dyn_scalar, _valve_post, _valve_kernel, _valve_parallel):
+    cache_depends_on(_k, _ax, _kpis, _kernels)
+
+
+class _ValveEngine(Engine):
+    name = ENV
+    sig_names = _SIG
+    sig_units = ("mm", "mm", "°C", "°C", "°C", "V", "W", "1", "1")
+    noise_channels = _CH
+    panels = (
+        ("stroke [mm]", ("x_V", "x_ref")),
+        ("temperature [°C]", ("T_P", "T_G", "T_U")),
+        ("heater", ("duty", "P_PTC")),
+        ("reward", ("reward",)),
+    )
+
+    def __init__(self, B: int, cfg: ValveConfig) -> None:
+        self.cfg = cfg
+        env = ENV
+        if cfg.action_mode not in ("duty", "onoff"):
+            raise ConfigError(f"{env}: action_mode is {cfg.action_mode!r}; 'duty' or 'onoff'")
+        self.obs_names = _OBS if cfg.previous_action else _OBS[:5]
+        self.obs_units = ("mm", "°C", "°C", "V", "mm", "1")[: len(self.obs_names)]
+        T = check_number(env, "control_period", cfg.control_period, lo=0.0, lo_open=True)
+        self._dt = T
+        self._horizon = steps_of(env, "episode_s", check_number(env, "episode_s", cfg.episode_s), T)
+        self.supply = check_range(env, "supply_V", cfg.supply_V, lo=0.0, hi=40.0)
+        self.ambient = check_range(env, "ambient_C", cfg.ambient_C, lo=-30.0, hi=80.0)
+        w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
+        bad = [e for e in cfg.rig_effects if str(e).split(":")[0] not in _STEPWISE_RIG_EFFECTS]
+        if bad:
+            raise ConfigError(
+                f"{env}: rig effect(s) {bad} are not available step-wise in environments; "
+                f"available: {list(_STEPWISE_RIG_EFFECTS)}"
+            )
+        specimen = None
+        if cfg.plant == "rig" and cfg.specimen_seed is not None:
+            from thermogym.rigs.axt211 import specimen_spread
+
+            specimen = specimen_spread(np.random.default_rng(cfg.specimen_seed), n=1)[0]
+        plant = resolve_plant(
+            env,
+            params=cfg.params,
+            plant=cfg.plant,
+            models=("axt211",),
+            default=AXT211,
+            rig="axt211",
+            rig_effects=cfg.rig_effects,
+            specimen=specimen,
+        )
+        super().__init__(B, plant, _NACC, tp_capacity=256)
+        self._setpoint(cfg)
+        sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)
+        lo, hi = self.obs_bounds()
+        off = np.zeros(len(lo))
+        drift = np.zeros(len(lo))
+        for eff in plant.rig_effects:
+            sig = eff.params.get("signal")
+            if eff.name in ("sensor_offset", "sensor_drift") and sig in _CH:
+                j = _CH.index(sig)
+                if eff.name == "sensor_offset":
+                    off[j] = float(eff.params.get("offset", 1.0))
+                else:
+                    drift[j] = float(eff.params.get("rate", 0.5))
+        self.meas = meas_array(sens, lo, hi, off, drift)
+        h_T = check_number(env, "cycle_hysteresis_K", cfg.cycle_hysteresis_K, lo=0.0)
+        h_x = check_number(env, "reversal_hysteresis_mm", cfg.reversal_hysteresis_mm, lo=0.0)
+        self.cfgv = np.array(
+            [
+                T,
+                AXT211.max_step,
+                float(self._horizon),
+                1.0 if cfg.action_mode == "onoff" else 0.0,
+                float(self.hold),
+                w["tracking"],
+                w["energy"],
+                w["switching"],
+                w["travel"],
+                _P_REF,
+                check_number(env, "wax_limit_C", cfg.wax_limit_C),
+                check_number(env, "trip_C", cfg.trip_C),
+                h_T,
+                h_x,
+                1.0 if cfg.previous_action else 0.0,
+            ]
+        )
+        self.x = np.zeros((B, 4))
+        self.p = np.zeros((B, plant.model.full_theta(plant.theta).shape[1]))  # type: ignore[attr-defined]
+        self.dist = np.zeros((B, 2))
+        self.sp = np.zeros((B, self.n_seg))
+
+    def _setpoint(self, cfg: ValveConfig) -> None:
+        env = ENV
+        sp = cfg.setpoint
+        self.sp_fixed: NDArray[np.float64] | None = None
+        if isinstance(sp, str):
+            if sp != "random":
+                raise ConfigError(
+                    f"{env}: setpoint is {sp!r}; expected 'random', a number or an array"
+                )
+            self.sp_range = check_range(env, "setpoint_range", cfg.setpoint_range, lo=0.0, hi=7.0)
+            hold_s = check_number(env, "setpoint_hold_s", cfg.setpoint_hold_s, lo=0.0, lo_open=True)
+            self.hold = steps_of(env, "setpoint_hold_s", hold_s, self._dt)
+            self.n_seg = -(-self._horizon // self.hold)
+        elif np.ndim(sp) == 0:
+            v = check_number(env, "setpoint", sp, lo=0.0, hi=7.0)
+            self.sp_fixed = np.array([v])
+            self.hold, self.n_seg = self._horizon, 1
+        else:
+            a = np.asarray(sp, dtype=float)
+            if a.ndim != 1 or a.size < self._horizon:
+                raise ConfigError(
+                    f"{env}: setpoint has shape {a.shape}; expected one value per control "
+                    f"step, at least {self._horizon}"
+                )
+            if not (np.isfinite(a).all() and (a >= 0).all() and (a <= 7).all()):
+                raise ConfigError(f"{env}: setpoint values must be finite, within [0, 7] mm")
+            self.sp_fixed = a[: self._horizon].copy()
+            self.hold, self.n_seg = 1, self._horizon
+
+    @property
+    def dt(self) -> float:
+        return self._dt
+
+    @property
+    def horizon(self) -> int:
+        return self._horizon
+
+    def action_space(self) -> spaces.Space[Any]:
+        if self.cfg.action_mode == "onoff":
+            return spaces.Discrete(2)
+        return spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
+
+    def obs_bounds(self) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        lo = np.array([-0.5, -30.0, -30.0, 0.0, 0.0, 0.0], dtype=np.float32)
+        hi = np.array([7.0, 150.0, 80.0, 40.0, 7.0, 1.0], dtype=np.float32)
+        n = len(self.obs_names)
+        return lo[:n], hi[:n]
+
+    def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
+        self.p[b] = self.model.full_theta(theta)[0]  # type: ignore[attr-defined]
+
+    def _reset_row(self, b: int, rng: np.random.Generator) -> None:
+        TU = draw(rng, self.ambient)
+        kU = draw(rng, self.supply)
+        self.dist[b] = (kU, TU)
+        if self.sp_fixed is None:
+            self.sp[b] = rng.uniform(self.sp_range[0], self.sp_range[1], self.n_seg)
+        else:
+            self.sp[b] = self.sp_fixed
+        u0 = np.array([[0.0, kU, TU]])
+        self.x[b] = self.model.initial_state(self.theta[b : b + 1], u0)[0]
+
+    def _kernel(self, mode: int) -> int:
+        kernel = _valve_parallel if self.parallel and self.B > 1 else _valve_kernel
+        return int(
+            kernel(
+                mode, self.act, self.active, self.x, self.p, self.dist, self.sp, self.acc,
+                self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv, self.obs, self.out,
+                self.sig,
+            )
+        )  # fmt: skip
+
+    def kpis(self, b: int) -> dict[str, float]:
+        a = self.acc[b]
+        n = max(a[_A_N], 1.0)
+        tps = self.tpbuf[b, : self.ctr[b, C_NTP]]
+        last = tp_finish(a[_A_TPT : _A_TPT + 4].copy())
+        if not math.isnan(last):
+            tps = np.append(tps, last)
+        from thermogym.envs.kpis import _rainflow_tp
+
+        cycles = _rainflow_tp(tps, self.cfgv[_HT])
+        return {
+            "actuator_energy_Wh": float(a[_A_E] / 3600.0),
+            "switch_cycles": float(a[_A_SW]),
+            "stroke_travel_mm": float(a[_A_TRAV]),
+            "stroke_reversals": float(a[_A_TPX + 3]),
+            "wax_thermal_cycles": float(sum(c for _, c in cycles)),
+            "wax_damage": miner_damage(cycles),
+            "time_above_limit_h": float(a[_A_ABOVE] / 3600.0),
+            "stroke_rmse_mm": float(math.sqrt(a[_A_SSE] / n)),
+            "stroke_iae_mm_s": float(a[_A_IAE]),
+            "episode_h": float(self.ctr[b, C_K] * self._dt / 3600.0),
+        }
+
+    def trip_reason(self, b: int) -> str:
+        return f"wax temperature {self.x[b, 0]:.1f} °C above trip_C = {self.cfgv[_TRIP]} °C"
+
+
+class AXT211ValveEnv(ThermoEnv):
+    """Valve positioning with the AXT211 actuator (``thermogym/AXT211Valve-v0``).
+
+    See the module docstring for spaces, reward, KPIs and episode end, and
+    :class:`ValveConfig` for the keyword arguments.
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> import thermogym.envs
+    >>> env = gym.make("thermogym/AXT211Valve-v0", action_mode="onoff", setpoint=3.0)
+    >>> obs, info = env.reset(seed=0)
+    >>> env.unwrapped.obs_names
+    ('x_V', 'T_G', 'T_U', 'k_U', 'x_ref', 'u_prev')
+    >>> for _ in range(60):  # ten minutes of a thermostat-like on/off rule
+    ...     obs, r, terminated, truncated, info = env.step(int(obs[0] < obs[4]))
+    >>> bool(2.0 < env.unwrapped.true_outputs()["x_V"] < 4.0)
+    True
+    """
+
+    def __init__(
+        self,
+        *,
+        render_mode: str | None = None,
+        render_path: str | None = None,
+        record: bool | None = None,
+        **kwargs: Any,
+    ) -> None:
+        cfg = build_config(ValveConfig, ENV, kwargs)
+        self._setup(
+            _ValveEngine(1, cfg),
+            render_mode=render_mode,
+            render_path=render_path,
+            record=record,
+            randomize=cfg.randomize,
+            randomize_kwargs=cfg.randomize_kwargs,
+        )
+
+
+class AXT211ValveVectorEnv(ThermoVectorEnv):
+    """``num_envs`` AXT211 valves stepped by one compiled call (native vector env).
+
+    Keyword arguments as :class:`ValveConfig`, plus ``num_envs`` and
+    ``autoreset_mode`` (``"NextStep"`` default, ``"SameStep"``, ``"Disabled"``) and
+    ``parallel`` (one plant per thread).
+    """
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        autoreset_mode: str = "NextStep",
+        parallel: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        n = int(check_number(ENV, "num_envs", num_envs, lo=1))
+        cfg = build_config(ValveConfig, ENV, kwargs)
+        self._setup(
+            _ValveEngine(n, cfg),
+            AXT211ValveEnv,
+            autoreset_mode=autoreset_mode,
+            randomize=cfg.randomize,
+            randomize_kwargs=cfg.randomize_kwargs,
+            parallel=parallel,
+        )

@@ -1,0 +1,560 @@
+"""StrutThermal: feed-rate scheduling and thermal-elongation compensation.
+
+Description
+-----------
+The ball-screw actuator strut of ``000_24627a5308ee07db.txt`` (model
+:class:`thermogym.models.strut.StrutModel`: the 19-node thermal RC network,
+eq 13, with the five identified ratio parameters). The strut moves
+periodically at the commanded feed rate; its motor, bearings and nut heat it
+and it lengthens by ``ΔL = Σ_i α_i ΔT_i L_i`` (eq 5). The controller chooses
+the feed rate (throughput) and a compensation offset ``c`` that the machine
+control adds to the axis position; the accuracy is the elongation error
+``ΔL − c``. ``ΔL`` itself is not measured in production (a laser
+interferometer is costly, paper 000): the controller sees the seven
+thermocouples of the paper's test stand and the air temperature.
+
+Action Space
+------------
+``Box(-1, 1, (2,), float32)``: feed rate ``v = (a_0 + 1)/2 · v_max``
+[m/min] and compensation ``c = a_1 · c_max`` [µm].
+
+Observation Space
+-----------------
+``Box(float32)``, entries (:attr:`StrutThermalEnv.obs_names`)::
+
+    0-6  T_drive, T_belt_housing, T_bearing, T_nut, T_spindle, T_tube_front,
+         T_tube_rear   measured temperatures [°C] (thermocouples, -20..150)
+    7    T_air         measured air temperature [°C]
+    8    feed_prev     feed rate of the last period [m/min]
+    9    comp_prev     compensation of the last period [µm]
+
+Rewards
+-------
+Per control period (weights ``reward_weights``, defaults :data:`DEFAULT_WEIGHTS`)::
+
+    r_k = w_throughput · v_k / v_max − w_error · |ΔL − c_k| [µm] − w_trip · [safety trip]
+
+with ``ΔL`` at the end of the period.
+
+Starting State
+--------------
+The strut at rest at the air temperature; with ``zero_at_start=True``
+(default) the axis is referenced at the start, so ``ΔL(0) = 0`` (the
+reference temperature ``T_ref`` is the starting air temperature — the
+paper's "change compared to its initial value").
+
+Episode End
+-----------
+Termination: a safety trip when the drive exceeds ``trip_C`` (default
+70 °C). Truncation: after ``episode_s`` (default 8 h).
+
+KPIs
+----
+``elongation_error_um`` (RMS of ``ΔL − c``), ``elongation_error_max_um``,
+``time_above_limit_h`` (drive above ``drive_limit_C``), ``travel_m``,
+``mean_feed_m_min``, ``episode_h``.
+
+Version History
+---------------
+* v0: initial release.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numba as nb
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import NDArray
+
+from thermogym.envs import _kernels
+from thermogym.envs import _network as _nw
+from thermogym.envs._base import (
+    C_K,
+    ThermoEnv,
+    ThermoVectorEnv,
+    build_config,
+    check_number,
+    check_range,
+    draw,
+    parse_noise,
+    parse_weights,
+    steps_of,
+)
+from thermogym.envs._kernels import cache_depends_on, meas_array, measure
+from thermogym.envs._network import LTIEngine, lti_output, lti_update
+from thermogym.envs._plant import ParamsLike, resolve_plant
+from thermogym.errors import ConfigError
+from thermogym.models.strut import STRUT_OUTPUTS, StrutModel
+
+__all__ = ["DEFAULT_WEIGHTS", "StrutConfig", "StrutThermalEnv", "StrutThermalVectorEnv"]
+
+ENV = "StrutThermal"
+#: Default reward weights.
+DEFAULT_WEIGHTS = {"throughput": 1.0, "error": 0.02, "trip": 100.0}
+_TEMPS = tuple(STRUT_OUTPUTS)
+OUTPUTS = (*_TEMPS, "dL_um")
+#: Thermocouples (σ, resolution) as on the rig of paper 000.
+SENSORS = {**{k: (0.05, 0.01) for k in _TEMPS}, "T_air": (0.05, 0.01)}
+_CH = (*_TEMPS, "T_air")
+_OBS = (*_TEMPS, "T_air", "feed_prev", "comp_prev")
+_SIG = (*OUTPUTS, "T_air", "feed_rate", "compensation", "error_um", "reward")
+_STEPWISE_RIG_EFFECTS = (
+    "input_dependent_heat_transfer",
+    "input_nonlinearity",
+    "nonlinear_heat_transfer",
+    "time_varying_parameter",
+    "sensor_offset",
+    "sensor_drift",
+)
+
+
+@dataclass
+class StrutConfig:
+    """Keyword arguments of ``thermogym/StrutThermal-v0``."""
+
+    params: ParamsLike = None
+    """FitResult of model ``strut`` (the RC network with its five ratio parameters)."""
+    plant: str = "model"
+    """``"model"`` or ``"rig"`` (the strut rig's true plant)."""
+    rig_effects: Sequence[str] = ()
+    """Effects of the strut rig (``plant="rig"``)."""
+    control_period: float = 60.0
+    """Control period [s]."""
+    episode_s: float = 8 * 3600.0
+    """Episode length [s]."""
+    max_feed_m_min: float = 30.0
+    """Largest feed rate [m/min] (paper 000 tests 20-30 m/min)."""
+    max_compensation_um: float = 600.0
+    """Largest compensation offset [µm]."""
+    air_C: float | tuple[float, float] = (19.0, 23.0)
+    """Mean air temperature [°C] or a range drawn per episode."""
+    air_swing_K: float = 0.3
+    """Amplitude of the 6-hour air-temperature oscillation (as on the rig) [K]."""
+    zero_at_start: bool = True
+    """Reference the axis at the start (``ΔL(0) = 0``); False keeps the parameter ``T_ref``."""
+    drive_limit_C: float = 45.0
+    """Drive temperature counted in ``time_above_limit_h`` [°C]."""
+    trip_C: float = 70.0
+    """Drive temperature of the safety trip [°C]."""
+    sensor_noise: bool | Mapping[str, float] = True
+    """Sensor noise; False: exact; a dict overrides σ per channel."""
+    reward_weights: Mapping[str, float] | None = None
+    """Overrides of :data:`DEFAULT_WEIGHTS`."""
+    randomize: str | None = None
+    """Domain randomisation per episode."""
+    randomize_kwargs: Mapping[str, Any] | None = None
+    """``scale``, ``names``, ``bounds`` of the randomisation."""
+
+
+_T, _HOR, _VMAX, _CMAX, _LIM, _TRIP, _WT, _WE, _WTR = range(9)
+_A_SSE, _A_MAXE, _A_ABOVE, _A_TRAV, _A_V, _A_C = range(6)
+_NACC = 6
+
+
+@nb.njit(cache=True)
+def _strut_row(
+    b,
+    mode,
+    act,
+    linear,
+    x,
+    Ad,
+    Bd,
+    Hm,
+    Dm,
+    h0,
+    air,
+    acc,
+    ctr,
+    noise,
+    meas,
+    cfg,
+    obs,
+    out,
+    sig,
+    scratch,
+):  # pragma: no cover - numba
+    # one plant: step (mode 0) or observe only (mode 1); returns 1 for an invalid action
+    T = cfg[_T]
+    tmp = scratch[b, 2:]
+    u = scratch[b, :2]
+    na = air.shape[1]
+    k = ctr[b, 0]
+    r = 0.0
+    e = 0.0
+    v = acc[b, _A_V]
+    c = acc[b, _A_C]
+    if mode == 0:
+        a0 = act[b, 0]
+        a1 = act[b, 1]
+        if not (math.isfinite(a0) and math.isfinite(a1)):
+            ctr[b, 3] = 1
+            return 1
+        v = 0.5 * (min(max(a0, -1.0), 1.0) + 1.0) * cfg[_VMAX]
+        c = min(max(a1, -1.0), 1.0) * cfg[_CMAX]
+        u[0] = v
+        u[1] = air[b, min(k, na - 1)]
+        if linear[b]:
+            lti_update(x[b], u, Ad[b], Bd[b], tmp)
+        k += 1
+        ctr[b, 0] = k
+    u[0] = v
+    u[1] = air[b, min(k, na - 1)]
+    y = sig[b]  # the eight outputs (seven temperatures, ΔL eq 5), computed once
+    for i in range(8):
+        y[i] = lti_output(x[b], u, Hm[b], Dm[b], h0[b], i)
+    if mode == 0:
+        dL = y[7]
+        Td = y[0]
+        e = dL - c
+        acc[b, _A_SSE] += e * e
+        acc[b, _A_MAXE] = max(acc[b, _A_MAXE], abs(e))
+        if Td > cfg[_LIM]:
+            acc[b, _A_ABOVE] += T
+        acc[b, _A_TRAV] += v * T / 60.0
+        acc[b, _A_V] = v
+        acc[b, _A_C] = c
+        trip = Td > cfg[_TRIP]
+        r = cfg[_WT] * v / cfg[_VMAX] - cfg[_WE] * abs(e) - (cfg[_WTR] if trip else 0.0)
+        out[b, 0] = r
+        out[b, 1] = 1.0 if trip else 0.0
+        out[b, 2] = 1.0 if k >= cfg[_HOR] else 0.0
+    cur = ctr[b, 1]
+    z = noise[b, cur]
+    ctr[b, 1] = cur + 1
+    t_h = k * T / 3600.0
+    for i in range(7):
+        obs[b, i] = measure(y[i], meas, i, z[i], t_h)
+    obs[b, 7] = measure(u[1], meas, 7, z[7], t_h)
+    obs[b, 8] = v
+    obs[b, 9] = c
+    sig[b, 8] = u[1]
+    sig[b, 9] = v
+    sig[b, 10] = c
+    sig[b, 11] = e
+    sig[b, 12] = r
+    return 0
+
+
+@nb.njit(cache=True)
+def _strut_kernel(
+    mode,
+    act,
+    active,
+    linear,
+    x,
+    Ad,
+    Bd,
+    Hm,
+    Dm,
+    h0,
+    air,
+    acc,
+    ctr,
+    noise,
+    meas,
+    cfg,
+    obs,
+    out,
+    sig,
+    scratch,
+):  # pragma: no cover - numba
+    status = 0
+    for b in range(x.shape[0]):
+        if active[b]:
+            status = max(
+                status,
+                _strut_row(
+                    b,
+                    mode,
+                    act,
+                    linear,
+                    x,
+                    Ad,
+                    Bd,
+                    Hm,
+                    Dm,
+                    h0,
+                    air,
+                    acc,
+                    ctr,
+                    noise,
+                    meas,
+                    cfg,
+                    obs,
+                    out,
+                    sig,
+                    scratch,
+                ),
+            )
+    return status
+
+
+@nb.njit(cache=True, parallel=True)
+def _strut_parallel(
+    mode,
+    act,
+    active,
+    linear,
+    x,
+    Ad,
+    Bd,
+    Hm,
+    Dm,
+    h0,
+    air,
+    acc,
+    ctr,
+    noise,
+    meas,
+    cfg,
+    obs,
+    out,
+    sig,
+    scratch,
+):  # pragma: no cover - numba
+    # one plant per thread; each writes only its own rows, so results equal the serial ones
+    for i in nb.prange(x.shape[0]):
+        b = np.int64(i)  # the prange index is unsigned; keep index arithmetic signed
+        if active[b]:
+            _strut_row(
+                b,
+                mode,
+                act,
+                linear,
+                x,
+                Ad,
+                Bd,
+                Hm,
+                Dm,
+                h0,
+                air,
+                acc,
+                ctr,
+                noise,
+                meas,
+                cfg,
+                obs,
+                out,
+                sig,
+                scratch,
+            )
+    for b in range(x.shape[0]):
+        if active[b] and ctr[b, 3] != 0:
+            return 1
+    return 0
+
+
+for _k in (_strut_row, _strut_kernel, _strut_parallel):
+    cache_depends_on(_k, _nw, _kernels)
+
+
+class _StrutEngine(LTIEngine):
+    name = ENV
+    obs_names = _OBS
+    obs_units = ("°C",) * 8 + ("m/min", "µm")
+    sig_names = _SIG
+    sig_units = ("°C",) * 7 + ("µm", "°C", "m/min", "µm", "µm", "1")
+    noise_channels = _CH
+    panels = (
+        ("temperature [°C]", (*_TEMPS, "T_air")),
+        ("elongation [µm]", ("dL_um", "compensation", "error_um")),
+        ("feed [m/min]", ("feed_rate",)),
+        ("reward", ("reward",)),
+    )
+
+    def __init__(self, B: int, cfg: StrutConfig) -> None:
+        env = ENV
+        self.cfg = cfg
+        T = check_number(env, "control_period", cfg.control_period, lo=0.0, lo_open=True)
+        self._dt = T
+        self._horizon = steps_of(env, "episode_s", check_number(env, "episode_s", cfg.episode_s), T)
+        vmax = check_number(env, "max_feed_m_min", cfg.max_feed_m_min, lo=0.0, lo_open=True)
+        cmax = check_number(env, "max_compensation_um", cfg.max_compensation_um, lo=0.0)
+        self.u_max = vmax
+        self.air = check_range(env, "air_C", cfg.air_C, lo=-20.0, hi=60.0)
+        self.swing = check_number(env, "air_swing_K", cfg.air_swing_K, lo=0.0, hi=20.0)
+        w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
+        bad = [e for e in cfg.rig_effects if str(e).split(":")[0] not in _STEPWISE_RIG_EFFECTS]
+        if bad:
+            raise ConfigError(
+                f"{env}: rig effect(s) {bad} are not available step-wise in environments; "
+                f"available: {list(_STEPWISE_RIG_EFFECTS)}"
+            )
+        plant = resolve_plant(
+            env,
+            params=cfg.params,
+            plant=cfg.plant,
+            models=("strut",),
+            default=StrutModel,
+            rig="strut",
+            rig_effects=cfg.rig_effects,
+        )
+        super().__init__(B, plant, OUTPUTS, ("feed_rate", "T_air"), T, _NACC)
+        sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)
+        lo, hi = self.obs_bounds()
+        off = np.zeros(len(lo))
+        drift = np.zeros(len(lo))
+        for eff in plant.rig_effects:
+            s = {**plant.rig.effect_defaults.get(eff.name, {}), **eff.params}
+            if eff.name in ("sensor_offset", "sensor_drift") and s.get("signal") in _CH:
+                j = _CH.index(s["signal"])
+                if eff.name == "sensor_offset":
+                    off[j] = float(s.get("offset", 1.0))
+                else:
+                    drift[j] = float(s.get("rate", 0.5))
+        self.meas = meas_array(sens, lo, hi, off, drift)
+        self.cfgv = np.array(
+            [
+                T,
+                float(self._horizon),
+                vmax,
+                cmax,
+                check_number(env, "drive_limit_C", cfg.drive_limit_C),
+                check_number(env, "trip_C", cfg.trip_C),
+                w["throughput"],
+                w["error"],
+                w["trip"],
+            ]
+        )
+        self.air_tab = np.zeros((B, self._horizon + 1))
+        self._h0_dL = np.zeros(B)
+        self._iref = self.model.param_index("T_ref")
+        self._L_total_um = float(self.model._L_total_um)  # type: ignore[attr-defined]
+
+    @property
+    def dt(self) -> float:
+        return self._dt
+
+    @property
+    def horizon(self) -> int:
+        return self._horizon
+
+    def action_space(self) -> spaces.Space[Any]:
+        return spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
+
+    def n_act(self) -> int:
+        return 2
+
+    def obs_bounds(self) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        c = self.cfg
+        lo = np.array([-20.0] * 8 + [0.0, -c.max_compensation_um], dtype=np.float32)
+        hi = np.array([150.0] * 8 + [c.max_feed_m_min, c.max_compensation_um], dtype=np.float32)
+        return lo, hi
+
+    def _reset_row(self, b: int, rng: np.random.Generator) -> None:
+        mean = draw(rng, self.air)
+        phase = float(rng.uniform(0.0, 2 * np.pi))
+        t = self._dt * np.arange(self._horizon + 1)
+        self.air_tab[b] = mean + self.swing * np.sin(2 * np.pi * t / (6 * 3600.0) + phase)
+        if self.cfg.zero_at_start:
+            # the axis is referenced now: T_ref = starting air temperature, so ΔL(0) = 0.
+            # T_ref enters only the offset of ΔL (h_0 = −Σ α L · T_ref, eq 5)
+            T_ref = self.theta[b, self._iref]
+            self.h0[b, 7] = self._h0_dL[b] + self._L_total_um * (T_ref - self.air_tab[b, 0])
+        self.x[b] = self.rest_state(b, np.array([0.0, self.air_tab[b, 0]]))
+        self.acc[b, _A_V] = 0.0
+        self.acc[b, _A_C] = 0.0
+
+    def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
+        super()._set_theta_row(b, theta)
+        self._h0_dL[b] = self.h0[b, 7]
+
+    def _kernel(self, mode: int) -> int:
+        if mode == 0 and not self.all_linear:
+            a = np.clip(self.act[:, 0], -1.0, 1.0)
+            u = np.column_stack(
+                [
+                    0.5 * (a + 1.0) * self.cfgv[_VMAX],
+                    self.air_tab[np.arange(self.B), np.minimum(self.ctr[:, C_K], self._horizon)],
+                ]
+            )
+            self.advance_nonlinear(u)
+        kernel = _strut_parallel if self.parallel and self.B > 1 else _strut_kernel
+        return int(
+            kernel(
+                mode, self.act, self.active, self.linear, self.x, self.Ad, self.Bd, self.Hm,
+                self.Dm, self.h0, self.air_tab, self.acc, self.ctr, self.noise, self.meas,
+                self.cfgv, self.obs, self.out, self.sig, self.scratch,
+            )
+        )  # fmt: skip
+
+    def kpis(self, b: int) -> dict[str, float]:
+        a = self.acc[b]
+        k = max(int(self.ctr[b, C_K]), 1)
+        return {
+            "elongation_error_um": float(math.sqrt(a[_A_SSE] / k)),
+            "elongation_error_max_um": float(a[_A_MAXE]),
+            "time_above_limit_h": float(a[_A_ABOVE] / 3600.0),
+            "travel_m": float(a[_A_TRAV]),
+            "mean_feed_m_min": float(a[_A_TRAV] * 60.0 / (k * self._dt)),
+            "episode_h": float(self.ctr[b, C_K] * self._dt / 3600.0),
+        }
+
+    def trip_reason(self, b: int) -> str:
+        return f"drive above trip_C = {self.cfgv[_TRIP]} °C"
+
+
+class StrutThermalEnv(ThermoEnv):
+    """Feed rate and elongation compensation of the strut (``thermogym/StrutThermal-v0``).
+
+    See the module docstring and :class:`StrutConfig`.
+
+    Examples
+    --------
+    >>> import gymnasium as gym
+    >>> import numpy as np
+    >>> import thermogym.envs
+    >>> env = gym.make("thermogym/StrutThermal-v0")
+    >>> obs, info = env.reset(seed=0)
+    >>> for _ in range(60):  # an hour at 20 m/min without compensation
+    ...     obs, r, terminated, truncated, info = env.step(np.array([1/3, 0.0], np.float32))
+    >>> bool(env.unwrapped.true_outputs()["dL_um"] > 20.0)
+    True
+    """
+
+    def __init__(
+        self,
+        *,
+        render_mode: str | None = None,
+        render_path: str | None = None,
+        record: bool | None = None,
+        **kwargs: Any,
+    ) -> None:
+        cfg = build_config(StrutConfig, ENV, kwargs)
+        self._setup(
+            _StrutEngine(1, cfg),
+            render_mode=render_mode,
+            render_path=render_path,
+            record=record,
+            randomize=cfg.randomize,
+            randomize_kwargs=cfg.randomize_kwargs,
+        )
+
+
+class StrutThermalVectorEnv(ThermoVectorEnv):
+    """``num_envs`` struts stepped by one compiled call (native vector env)."""
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        autoreset_mode: str = "NextStep",
+        parallel: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        n = int(check_number(ENV, "num_envs", num_envs, lo=1))
+        cfg = build_config(StrutConfig, ENV, kwargs)
+        self._setup(
+            _StrutEngine(n, cfg),
+            StrutThermalEnv,
+            autoreset_mode=autoreset_mode,
+            randomize=cfg.randomize,
+            randomize_kwargs=cfg.randomize_kwargs,
+            parallel=parallel,
+        )
