@@ -1,0 +1,171 @@
+"""``thermogym firmware export fit.json --out DIR``: the virtual sensor as C99 firmware.
+
+Sub-commands:
+
+``export FIT --out DIR``
+    Generate ``vs_model.h`` (matrices, dimensions, scaling, provenance with the
+    FitResult fingerprint) and copy the C sources, host test, simavr harness
+    and Makefile (:func:`thermogym.firmware.export.export`). Refuses a model
+    that does not fit the target's flash or RAM and says by how much.
+    ``--vectors DATA`` adds test vectors of the Python observer on DATA, so
+    that ``make -C DIR test`` checks the C code against Python.
+``budget FIT``
+    Print the estimated footprint on the target without writing anything.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from thermogym.errors import ConfigError
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("fit", help="FitResult JSON of an identified 'ss' model")
+    p.add_argument(
+        "--measured", default="", metavar="NAMES", help="measured outputs (comma-separated)"
+    )
+    p.add_argument("--hidden", default=None, metavar="NAMES", help="outputs to estimate")
+    p.add_argument("--reference", default=None, metavar="NAME", help="e.g. T_amb for relative data")
+    p.add_argument("--measurement-std", type=float, default=0.05, help="sensor noise std")
+    p.add_argument("--process-std", type=float, default=1e-3, help="process noise (no K)")
+    p.add_argument("--disturbance", default="", metavar="NAMES", help="random-walk input states")
+    p.add_argument("--target", default="atmega328p", help="microcontroller (default atmega328p)")
+    p.add_argument(
+        "--flash-budget", type=int, help="bytes of flash the observer may use (default: all free)"
+    )
+    p.add_argument(
+        "--ram-budget", type=int, help="bytes of static RAM the observer may use (default 1536)"
+    )
+    p.add_argument(
+        "--range",
+        action="append",
+        default=[],
+        metavar="NAME=LO:HI",
+        help="valid range of an exogenous or measured channel (°C default -50:300)",
+    )
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Declare the sub-commands and their options."""
+    sub = p.add_subparsers(dest="fw_command", metavar="SUBCOMMAND")
+    sub.required = True
+    e = sub.add_parser("export", help="write vs_model.h and the C sources into a folder")
+    _common(e)
+    e.add_argument("--out", required=True, help="folder to create")
+    e.add_argument("--vectors", metavar="DATA", help="recording for C-versus-Python test vectors")
+    e.add_argument(
+        "--rest", action="append", default=[], metavar="NAME=VALUE", help="rest-state input"
+    )
+    e.add_argument(
+        "--offset", action="append", default=[], metavar="NAME=VALUE", help="operating point"
+    )
+    e.add_argument("--scale", action="append", default=[], metavar="NAME=VALUE", help="scaling")
+    e.add_argument("--overwrite", action="store_true", help="replace files in an existing folder")
+    e.add_argument(
+        "--no-avr-check",
+        action="store_true",
+        help="do not confirm the footprint with avr-size even when avr-gcc is installed",
+    )
+    b = sub.add_parser("budget", help="print the estimated flash and RAM on the target")
+    _common(b)
+
+
+def _pairs(items: list[str]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        k, sep, v = item.partition("=")
+        try:
+            out[k.strip()] = float(v)
+        except ValueError:
+            sep = ""
+        if not sep or not k.strip():
+            raise ConfigError(f"{item!r} is not of the form NAME=NUMBER")
+    return out
+
+
+def _rest_pairs(items: list[str]) -> dict[str, float | str]:
+    from thermogym._cli.virtual_sensor import _pairs as rest_pairs
+
+    return rest_pairs(items)
+
+
+def _ranges(items: list[str]) -> dict[str, tuple[float, float]]:
+    out = {}
+    for item in items:
+        k, sep, v = item.partition("=")
+        lo, sep2, hi = v.partition(":")
+        try:
+            out[k.strip()] = (float(lo), float(hi))
+        except ValueError:
+            sep2 = ""
+        if not sep or not sep2:
+            raise ConfigError(f"--range {item!r} is not of the form NAME=LO:HI")
+    return out
+
+
+def _names(text: str | None) -> tuple[str, ...] | None:
+    if text is None:
+        return None
+    return tuple(s.strip() for s in text.split(",") if s.strip())
+
+
+def run(args: argparse.Namespace) -> int:
+    """Export or size the firmware."""
+    from thermogym.firmware.codegen import budget_target, firmware_model
+    from thermogym.firmware.export import export, sensor_from_fit
+
+    kwargs = {
+        "measured": _names(args.measured) or (),
+        "hidden": _names(args.hidden),
+        "reference": args.reference,
+        "measurement_std": args.measurement_std,
+        "process_std": args.process_std,
+        "disturbance_inputs": _names(args.disturbance) or (),
+        "ranges": _ranges(args.range) or None,
+    }
+    if args.fw_command == "budget":
+        sensor, _ = sensor_from_fit(args.fit, **kwargs)
+        tgt = budget_target(args.target, flash_budget=args.flash_budget, ram_budget=args.ram_budget)
+        fp = firmware_model(sensor.observer_matrices()).footprint(tgt)
+        print(json.dumps(fp.as_dict(), indent=2))
+        return 0 if fp.fits else 1
+    vectors = None
+    if args.vectors:
+        from thermogym.recording import read_recording
+
+        vectors = read_recording(args.vectors)
+    rep = export(
+        args.fit,
+        args.out,
+        sensor_kwargs=kwargs,
+        target=args.target,
+        flash_budget=args.flash_budget,
+        ram_budget=args.ram_budget,
+        offsets=_pairs(args.offset) or None,
+        scales=_pairs(args.scale) or None,
+        vectors=vectors,
+        rest=_rest_pairs(args.rest) or None,
+        check_avr=False if args.no_avr_check else None,
+        overwrite=args.overwrite,
+    )
+    n, m, q, p = rep.dims
+    fp = rep.footprint
+    print(
+        f"exported the order-{n} observer ({m} exogenous, {q} measured, {p} estimated) to "
+        f"{rep.out_dir}: {len(rep.files)} files"
+    )
+    print(
+        f"  estimated footprint on the {fp.target.name}: {fp.flash_bytes} B flash of "
+        f"{fp.target.flash_available}, {fp.ram_bytes} B static RAM of {fp.target.ram_available}"
+    )
+    if rep.avr_size:
+        print(
+            f"  avr-size: {rep.avr_size['flash_bytes']} B flash, "
+            f"{rep.avr_size['ram_bytes']} B static RAM"
+        )
+    if rep.vectors:
+        print(f"  test vectors: {rep.vectors}; run `make -C {rep.out_dir} test`")
+    print(f"  FitResult fingerprint {rep.fingerprint[:16]}…")
+    return 0
