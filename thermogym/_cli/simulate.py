@@ -42,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from thermogym.models.registry import get_model
     from thermogym.recording import Recording, read_recording, write_recording
 
+    linear = None
     if args.params:
         fit = load_fit(args.params)
         if args.model and args.model != fit.model:
@@ -50,6 +51,8 @@ def run(args: argparse.Namespace) -> int:
             )
         model = fit.build_model()
         theta = fit.theta(model)
+        if fit.model in ("ss", "foptd") and "operating_point" in fit.settings:
+            linear = fit  # a deviation model: apply its operating point and initial state
     elif args.model:
         model = get_model(args.model)
         theta = model.theta()
@@ -60,15 +63,21 @@ def run(args: argparse.Namespace) -> int:
     rec = read_recording(args.inputs)
     rec.validate_for(model, outputs=False)
     rec.check_values([s.name for s in model.exogenous])
-    u = rec.exogenous_array(model)
-    sim = model.simulate(u, rec.dt, theta, t0=float(rec.time[0]))
-    out = Recording.from_simulation(
-        sim,
-        model=model,
-        experiment_id=f"{rec.experiment_id or Path(args.inputs).stem}-sim",
-        source=f"thermogym simulate {model.name}",
-        meta={"inputs": str(args.inputs)},
-    )
+    if linear is not None:
+        from thermogym.identification.linear_fit import simulate_recording
+
+        linear.parameters.update(parse_sets(args.set))
+        out = simulate_recording(linear, rec)
+    else:
+        u = rec.exogenous_array(model)
+        sim = model.simulate(u, rec.dt, theta, t0=float(rec.time[0]))
+        out = Recording.from_simulation(
+            sim,
+            model=model,
+            experiment_id=f"{rec.experiment_id or Path(args.inputs).stem}-sim",
+            source=f"thermogym simulate {model.name}",
+            meta={"inputs": str(args.inputs)},
+        )
     write_recording(out, args.out)
     print(f"simulated {model.name} on {rec.n_samples} samples (dt = {rec.dt:g} s) -> {args.out}")
     for name in model.output_names:

@@ -1,0 +1,380 @@
+r"""``thermogym identify foptd|n4sid|rls``: linear identification from recordings.
+
+Examples
+--------
+FOPTD set of the strut (paper 000, section 4.1)::
+
+    thermogym experiment strut steps --out runs
+    thermogym identify foptd --model strut runs/strut-step-20.csv \\
+        --validate runs/strut-step-25.csv runs/strut-step-30.csv --out foptd.json --plots figs
+
+N4SID of the spindle with a 2-fold cross-validated order (paper 001)::
+
+    thermogym experiment spindle run-in --out raw --option speeds=[6000]
+    thermogym identify n4sid raw/spindle-6000rpm-fold1.csv raw/spindle-6000rpm-fold2.csv \\
+        --inputs speed --outputs T_rear_bearing_A,T_front_bearing_C \\
+        --prepare ambient=T_amb valid_range=-50,300 --orders 1:12 --folds 2 --out ss.json
+
+Any CSV/Parquet recording works with ``--inputs``/``--outputs`` naming its columns.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+from pathlib import Path
+from typing import Any
+
+from thermogym.errors import ConfigError
+
+METHODS = ("foptd", "n4sid", "rls")
+
+
+def _cols(text: str | None) -> list[str] | None:
+    if text is None:
+        return None
+    out = [c.strip() for c in text.split(",") if c.strip()]
+    if not out:
+        raise ConfigError(f"empty column list {text!r}")
+    return out
+
+
+def _range(text: str) -> range:
+    a, sep, b = text.partition(":")
+    try:
+        lo, hi = int(a), int(b) if sep else int(a)
+    except ValueError:
+        raise ConfigError(f"--orders {text!r} is not of the form A:B (whole numbers)") from None
+    if lo < 1 or hi < lo:
+        raise ConfigError(f"--orders {text!r}: expected 1 <= A <= B")
+    return range(lo, hi + 1)
+
+
+def _prepare_options(items: list[str] | None) -> dict[str, Any] | None:
+    if items is None:
+        return None
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.isidentifier():
+            raise ConfigError(f"--prepare {item!r} is not of the form KEY=VALUE")
+        try:
+            v = ast.literal_eval(value)
+        except (ValueError, SyntaxError):
+            v = value
+        if key == "valid_range" and isinstance(v, str) and ":" in v:
+            v = tuple(float(x) for x in v.split(":"))
+        out[key] = tuple(v) if isinstance(v, list) else v
+    return out
+
+
+def build_parser(method: str) -> argparse.ArgumentParser:
+    """Options of ``thermogym identify METHOD``."""
+    p = argparse.ArgumentParser(
+        prog=f"thermogym identify {method}",
+        description={
+            "foptd": "FOPTD transfer functions by least squares and delay search (000 section 4.1)",
+            "n4sid": "MIMO state space by N4SID; order by singular values or k-fold "
+            "cross-validation (001 section 2.3.3, eqs 7-10)",
+            "rls": "FOPTD parameters by recursive least squares with forgetting",
+        }[method],
+    )
+    p.add_argument("data", nargs="+", help="training recordings (CSV/Parquet)")
+    p.add_argument("--validate", nargs="+", default=[], metavar="DATA", help="validation data")
+    p.add_argument("--model", help="thermogym plant whose signal names to use (e.g. spindle)")
+    p.add_argument("--inputs", help="exogenous columns, comma separated")
+    p.add_argument("--outputs", help="output columns, comma separated")
+    p.add_argument("--disturbances", help="which inputs are disturbances (default: roles)")
+    p.add_argument(
+        "--prepare",
+        nargs="*",
+        metavar="KEY=VALUE",
+        help="prepare raw data first (outliers, 1 Hz grid, gaps, alignment); options of "
+        "thermogym.identification.prepare.PrepareConfig, e.g. ambient=T_amb "
+        "valid_range=-50,300 dt=1",
+    )
+    p.add_argument(
+        "--operating-point",
+        choices=("none", "initial", "mean"),
+        help="subtracted from each experiment (default: initial for foptd/rls, none for n4sid)",
+    )
+    p.add_argument("--out", required=True, help="FitResult JSON to write")
+    p.add_argument("--plots", help="folder for figures")
+    if method in ("foptd", "rls"):
+        p.add_argument("--max-delay-s", type=float, help="largest delay searched [s]")
+        p.add_argument("--criterion", choices=("simulation", "equation"), default="simulation")
+    if method == "rls":
+        p.add_argument("--forgetting", type=float, default=0.999, help="λ (default 0.999)")
+        p.add_argument("--delays", help="delays [samples], one or one per output")
+        p.add_argument("--from-fit", help="warm start from a foptd FitResult")
+    if method == "n4sid":
+        g = p.add_mutually_exclusive_group()
+        g.add_argument("--order", type=int, help="model order")
+        g.add_argument("--orders", default="1:10", help="candidate orders A:B (default 1:10)")
+        p.add_argument(
+            "--folds",
+            type=int,
+            help="choose the order by k-fold cross-validation (recordings are dealt round "
+            "robin into the folds; a single recording is cut into K parts)",
+        )
+        p.add_argument("--scheme", choices=("paper", "kfold"), default="paper")
+        p.add_argument("--horizon", type=int, help="block rows (default from the orders)")
+        p.add_argument("--decimate", default="auto", help="factor or 'auto' (default)")
+        p.add_argument("--weighting", choices=("moesp", "cva", "n4sid"), default="moesp")
+        p.add_argument("--feedthrough", action="store_true", help="estimate D")
+        p.add_argument("--x0", choices=("estimate", "zero"), default="estimate")
+        p.add_argument("--no-noise-model", action="store_true", help="K = 0")
+    return p
+
+
+def _load(paths: list[str], prep: dict[str, Any] | None) -> list[Any]:
+    from thermogym.identification.prepare import prepare
+    from thermogym.recording import read_recording
+
+    recs = []
+    for path in paths:
+        rec = read_recording(path)
+        if rec.experiment_id is None:
+            rec = rec.replace(experiment_id=Path(path).stem.split(".")[0])
+        recs.append(prepare(rec, **prep) if prep is not None else rec)
+    return recs
+
+
+def _signals(args: argparse.Namespace, rec: Any) -> tuple[list[str], list[str]]:
+    inputs, outputs = _cols(args.inputs), _cols(args.outputs)
+    if args.model:
+        from thermogym.models.registry import get_model
+
+        model = get_model(args.model)
+        inputs = inputs or list(model.exogenous_names)
+        outputs = outputs or list(model.output_names)
+    if inputs is None:
+        inputs = [c for c in rec.columns if rec.roles.get(c) in ("input", "disturbance")]
+    if outputs is None:
+        outputs = [c for c in rec.columns if rec.roles.get(c) == "output"]
+    if not inputs or not outputs:
+        raise ConfigError(
+            f"name the columns: --inputs/--outputs (or --model PLANT); the recording has "
+            f"{list(rec.columns)} and no roles to tell inputs from outputs"
+        )
+    return inputs, outputs
+
+
+def _report(fit: Any) -> None:
+    for part in ("train", "validation"):
+        m = fit.metrics.get(part)
+        if not m:
+            continue
+        print(f"  {part}: MNRMSE {100 * m['mnrmse']:.2f} %")
+        for eid, rep in m["experiments"].items():
+            worst = min(rep["nrmse"].items(), key=lambda kv: kv[1])
+            print(
+                f"    {eid:<32} MNRMSE {100 * rep['mnrmse']:7.2f} %   "
+                f"(lowest {worst[0]} {100 * worst[1]:.2f} %)"
+            )
+
+
+def _plot_fits(fit: Any, recs: list[Any], folder: Path, tag: str) -> list[Path]:
+    from thermogym.identification.linear_fit import predict_fit
+    from thermogym.identification.linear_plots import plot_fit
+    from thermogym.identification.metrics import nrmse
+
+    model = fit.build_model()
+    outs = list(model.output_names)
+    paths = []
+    for rec in recs:
+        yh = predict_fit(fit, rec)
+        fits = {c: float(nrmse(rec[c], yh[:, j])) for j, c in enumerate(outs)}
+        name = f"{tag}_{rec.experiment_id or 'recording'}.png"
+        paths.append(
+            plot_fit(
+                rec, yh, outs, folder / name, title=f"{fit.method}: {rec.experiment_id}", fits=fits
+            )
+        )
+    return paths
+
+
+def main(method: str, argv: list[str]) -> int:
+    """Run ``thermogym identify METHOD ARGS``."""
+    if method not in METHODS:
+        raise ConfigError(f"unknown linear method {method!r}; expected one of {METHODS}")
+    args = build_parser(method).parse_args(argv)
+    prep = _prepare_options(args.prepare)
+    train = _load(args.data, prep)
+    vals = _load(args.validate, prep)
+    inputs, outputs = _signals(args, train[0])
+    dist = _cols(args.disturbances)
+    plots = Path(args.plots) if args.plots else None
+    if plots:
+        plots.mkdir(parents=True, exist_ok=True)
+    figures: list[Path] = []
+    if method == "foptd":
+        from thermogym.identification.foptd import fit_foptd
+
+        res = fit_foptd(
+            train,
+            inputs,
+            outputs,
+            disturbances=dist,
+            max_delay_s=args.max_delay_s,
+            criterion=args.criterion,
+            operating_point_mode=args.operating_point or "initial",
+            validate=vals,
+        )
+        fit = res.fit
+        print(f"FOPTD ({args.criterion} criterion) in {res.seconds:.3f} s:")
+        for j, c in enumerate(outputs):
+            for i, u in enumerate(res.model.exogenous_names):
+                print(
+                    f"  {c:<24} <- {u:<12} K = {res.K[j, i]:10.4g}  T = {res.T[j, i]:9.4g} s  "
+                    f"tau = {res.tau[j, i]:7.4g} s"
+                )
+        if plots:
+            from thermogym.identification.linear_plots import plot_delay_loss
+
+            figures.append(plot_delay_loss(res, plots / "foptd_delay_search.png"))
+    elif method == "rls":
+        fit = _run_rls(args, train, vals, inputs, outputs, dist)
+    else:
+        fit = _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures)
+    _report(fit)
+    fit.save(args.out)
+    if plots:
+        figures += _plot_fits(fit, train, plots, "train")
+        figures += _plot_fits(fit, vals, plots, "validation")
+        for f in figures:
+            print(f"  figure: {f}")
+    print(f"wrote {args.out}")
+    return 0
+
+
+def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyped-def]
+    import numpy as np
+
+    from thermogym.identification.foptd import fit_foptd
+    from thermogym.identification.linear_fit import evaluate_fit, exogenous_roles
+    from thermogym.identification.rls import RecursiveFOPTD
+
+    ins, dis = exogenous_roles(train[0], inputs, dist)
+    exo = ins + dis
+    if args.from_fit:
+        est = RecursiveFOPTD.from_fit(args.from_fit, forgetting=args.forgetting)
+    else:
+        if args.delays:
+            delays = [int(v) for v in args.delays.split(",")]
+            d = np.array(delays)[:, None] if len(delays) > 1 else delays[0]
+        else:
+            d = np.round(
+                fit_foptd(
+                    train[0], inputs, outputs, disturbances=dist, max_delay_s=args.max_delay_s
+                ).tau
+                / train[0].dt
+            ).astype(int)
+            print(f"  delays from a batch FOPTD fit of {train[0].experiment_id}: {d.tolist()}")
+        est = RecursiveFOPTD(
+            exo,
+            outputs,
+            dt=train[0].dt,
+            delays=d,
+            disturbances=dis,
+            forgetting=args.forgetting,
+            units={k: v for k, v in train[0].units.items()},
+        )
+    for rec in train:
+        u = np.column_stack([rec[c] for c in exo])
+        y = np.column_stack([rec[c] for c in outputs])
+        est.update_many(u, y)
+    fit = est.to_fitresult()
+    from thermogym.fitresult import data_entry
+
+    fit.data = [data_entry(r, "train") for r in train] + [data_entry(r, "validation") for r in vals]
+    fit.metrics["train"] = evaluate_fit(fit, train)
+    if vals:
+        fit.metrics["validation"] = evaluate_fit(fit, vals)
+    K, T, tau = est.parameters()
+    print(f"RLS (λ = {args.forgetting}) over {est.rls.n_updates} samples:")
+    for j, c in enumerate(outputs):
+        for i, u_ in enumerate(exo):
+            print(
+                f"  {c:<24} <- {u_:<12} K = {K[j, i]:10.4g}  T = {T[j, i]:9.4g} s  "
+                f"tau = {tau[j, i]:7.4g} s"
+            )
+    return fit
+
+
+def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # type: ignore[no-untyped-def]
+    from thermogym.identification.crossval import cross_validate_order, split_recording
+    from thermogym.identification.n4sid import n4sid
+
+    decimate: int | str = args.decimate
+    if decimate != "auto":
+        try:
+            decimate = int(decimate)
+        except ValueError:
+            raise ConfigError(
+                f"--decimate {args.decimate!r}: expected a whole number or 'auto'"
+            ) from None
+    opm = args.operating_point or "none"
+    common = {
+        "disturbances": dist,
+        "horizon": args.horizon,
+        "decimate": decimate,
+        "weighting": args.weighting,
+        "feedthrough": args.feedthrough,
+        "x0": args.x0,
+        "operating_point_mode": opm,
+    }
+    cv = None
+    order = args.order
+    orders = _range(args.orders) if args.order is None else range(args.order, args.order + 1)
+    if args.folds:
+        k = int(args.folds)
+        if len(train) == 1:
+            folds = [[p] for p in split_recording(train[0], k)]
+        elif len(train) >= k:
+            folds = [train[f::k] for f in range(k)]
+        else:
+            raise ConfigError(f"--folds {k} with {len(train)} recordings: give 1 or at least {k}")
+        cv = cross_validate_order(folds, inputs, outputs, orders, scheme=args.scheme, **common)
+        order = cv.best_order
+        print(
+            f"{k}-fold cross-validation ({args.scheme}) over orders {orders.start}.."
+            f"{orders.stop - 1} in {cv.seconds['total']:.2f} s: n* = {order} "
+            f"(TA {100 * cv.ta[list(cv.orders).index(order)]:.2f} %, "
+            f"VA {100 * cv.va[list(cv.orders).index(order)]:.2f} %)"
+        )
+        for row in cv.table():
+            print(
+                f"    n = {row['order']:3d}  TA {100 * row['TA']:7.2f} %  "
+                f"VA {100 * row['VA']:7.2f} %"
+            )
+    res = n4sid(
+        train,
+        inputs,
+        outputs,
+        order,
+        orders=orders,
+        noise_model=not args.no_noise_model,
+        validate=vals,
+        **common,
+    )
+    fit = res.fit
+    if cv is not None:
+        fit.settings["cross_validation"] = cv.to_dict()
+        fit.settings["order_source"] = f"{len(cv.folds)}-fold cross-validation (eq 10)"
+    print(
+        f"N4SID order {res.order} ({fit.settings['order_source']}), horizon "
+        f"{res.decomposition.horizon}, decimation {res.decomposition.decimate}, "
+        f"{res.seconds:.2f} s"
+    )
+    if plots:
+        from thermogym.identification.linear_plots import plot_order_cv, plot_singular_values
+
+        figures.append(
+            plot_singular_values(
+                res.decomposition.singular_values, plots / "singular_values.png", chosen=res.order
+            )
+        )
+        if cv is not None:
+            figures.append(plot_order_cv(cv, plots / "order_cv.png"))
+    return fit

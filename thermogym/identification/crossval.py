@@ -1,0 +1,337 @@
+"""k-fold cross-validation of the N4SID model order (paper 001, eqs 7-10).
+
+Paper 001 chooses the order of the spindle model by cross-validation over
+experiments instead of the Hankel singular values::
+
+    Accuracy = test(M^fold_{rpm,n}, D^fold_{rpm})                          (7)
+    TA = ½ [test(M¹, D¹) + test(M², D²)]                                   (8)
+    VA = ½ [test(M¹, D²) + test(M², D¹)]                                   (9)
+    n* = argmax_n VA(rpm, n)                                              (10)
+
+where ``test`` is the MNRMSE of eq (6). :func:`cross_validate_order`
+generalises this to ``k`` folds (each a list of experiments):
+
+* ``scheme="paper"`` (default): model ``i`` is trained on fold ``i`` alone
+  and tested on every fold ``j``; TA is the mean of the diagonal, VA of the
+  off-diagonal (for ``k = 2`` exactly eqs (8)-(9));
+* ``scheme="kfold"``: the usual machine-learning k-fold — model ``i`` is
+  trained on all folds but ``i``, VA is its fit on fold ``i`` and TA its fit
+  on its own training folds.
+
+For every training set the data are decomposed once
+(:func:`~thermogym.identification.n4sid.n4sid_decompose`) and every order is
+derived from that decomposition; the evaluation simulates each model at the
+data's sample period with the initial state estimated on the tested
+experiment (``x0="estimate"``, as MATLAB's ``compare``) or zero.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from thermogym.errors import ConfigError, IdentificationError
+from thermogym.identification.metrics import nrmse, train_validation_accuracy
+from thermogym.identification.n4sid import N4SIDProblem, n4sid_decompose, prepare_problem
+from thermogym.recording import Recording
+
+__all__ = ["SCHEMES", "OrderCV", "cross_validate_order", "split_recording"]
+
+#: Cross-validation schemes.
+SCHEMES: tuple[str, ...] = ("paper", "kfold")
+
+
+@dataclass
+class OrderCV:
+    """Outcome of :func:`cross_validate_order`.
+
+    Attributes
+    ----------
+    orders : ndarray of int
+    fits : ndarray, shape (n_orders, k, k)
+        ``fits[o, i, j]``: MNRMSE (eq 6) of model ``i`` on fold ``j`` (scheme
+        "paper"), or of model ``i`` on fold ``j`` where model ``i`` was trained
+        on all folds but ``i`` (scheme "kfold").
+    output_fits : ndarray, shape (n_orders, k, k, p)
+        The same per output (NRMSE, eq 5).
+    ta, va : ndarray, shape (n_orders,)
+        Training and validation accuracy, eqs (8)-(9).
+    best_order : int
+        ``argmax VA``, eq (10).
+    parsimonious_order : int
+        The lowest order whose VA is within ``tolerance`` of the best: orders
+        above the true one fit the noise and differ from it only in the last
+        digits, so eq (10) picks among them by chance.
+    tolerance : float
+        VA tolerance of ``parsimonious_order`` (fraction, default 0.001 = 0.1 %).
+    singular_values : list of ndarray
+        Of each training set's decomposition.
+    seconds : dict
+        Wall time of the stages: ``decomposition``, ``models``,
+        ``evaluation``, ``total`` [s].
+    folds : list of list of str
+        Experiment ids of each fold.
+    scheme : str
+    settings : dict
+        Options of the identification (horizon, decimation, ...).
+    """
+
+    orders: NDArray[np.int64]
+    fits: NDArray[np.float64]
+    output_fits: NDArray[np.float64]
+    ta: NDArray[np.float64]
+    va: NDArray[np.float64]
+    best_order: int
+    singular_values: list[NDArray[np.float64]]
+    seconds: dict[str, float]
+    folds: list[list[str]]
+    scheme: str
+    output_names: list[str]
+    parsimonious_order: int = 0
+    tolerance: float = 1e-3
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    def table(self) -> list[dict[str, float]]:
+        """One row per order: order, TA, VA (fractions)."""
+        return [
+            {"order": int(n), "TA": float(t), "VA": float(v)}
+            for n, t, v in zip(self.orders, self.ta, self.va, strict=True)
+        ]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary."""
+        k = int(np.argmax(self.va))
+        return {
+            "scheme": self.scheme,
+            "folds": self.folds,
+            "orders": self.orders.tolist(),
+            "TA": self.ta.tolist(),
+            "VA": self.va.tolist(),
+            "best_order": self.best_order,
+            "parsimonious_order": self.parsimonious_order,
+            "tolerance": self.tolerance,
+            "best_TA": float(self.ta[k]),
+            "best_VA": float(self.va[k]),
+            "fits": self.fits.tolist(),
+            "singular_values": [s.tolist() for s in self.singular_values],
+            "seconds": self.seconds,
+            "settings": self.settings,
+        }
+
+
+def split_recording(rec: Recording, k: int) -> list[Recording]:
+    """Cut one recording into ``k`` contiguous parts of (nearly) equal length.
+
+    For cross-validation when only one experiment exists; each part keeps the
+    recording's metadata and gets the id ``<id>-part<j>``.
+
+    Examples
+    --------
+    >>> rec = Recording(np.arange(10.0), {"y": np.arange(10.0)}, experiment_id="run")
+    >>> [(p.experiment_id, p.n_samples) for p in split_recording(rec, 3)]
+    [('run-part1', 3), ('run-part2', 4), ('run-part3', 3)]
+    """
+    if int(k) != k or k < 2:
+        raise ConfigError(f"k is {k!r}; expected a whole number >= 2")
+    if rec.n_samples < 2 * k:
+        raise IdentificationError(f"{rec.n_samples} samples cannot be cut into {k} parts")
+    edges = np.linspace(0, rec.n_samples, int(k) + 1).round().astype(int)
+    parts = []
+    for j in range(int(k)):
+        sel = slice(int(edges[j]), int(edges[j + 1]))
+        part = Recording(
+            rec.time[sel],
+            {c: rec[c][sel] for c in rec.columns},
+            units=dict(rec.units),
+            roles=dict(rec.roles),
+            experiment_id=f"{rec.experiment_id or 'recording'}-part{j + 1}",
+            source=rec.source,
+            meta={**rec.meta, "part": j + 1, "of": int(k)},
+        )
+        parts.append(part)
+    return parts
+
+
+def _as_folds(
+    folds: Sequence[Recording | Sequence[Recording]],
+) -> list[list[Recording]]:
+    out = []
+    for f in folds:
+        out.append([f] if isinstance(f, Recording) else list(f))
+    if len(out) < 2:
+        raise ConfigError(
+            f"cross-validation needs at least 2 folds, got {len(out)}; give several "
+            "experiments, or cut one with split_recording(rec, k)"
+        )
+    if any(not f for f in out):
+        raise ConfigError("a fold holds no recording")
+    return out
+
+
+def cross_validate_order(
+    folds: Sequence[Recording | Sequence[Recording]],
+    inputs: Sequence[str] | str,
+    outputs: Sequence[str] | str,
+    orders: Sequence[int] = range(1, 31),
+    *,
+    scheme: str = "paper",
+    disturbances: Sequence[str] | None = None,
+    horizon: int | None = None,
+    decimate: int | str = "auto",
+    weighting: str = "moesp",
+    feedthrough: bool = False,
+    x0: str = "estimate",
+    operating_point_mode: str = "none",
+    tolerance: float = 1e-3,
+) -> OrderCV:
+    """Choose the N4SID order by k-fold cross-validation over experiments.
+
+    Parameters
+    ----------
+    folds : sequence
+        Each fold a recording or a list of recordings (e.g. fold 1 and fold 2
+        of Table 4 of paper 001).
+    inputs, outputs : sequence of str
+        Columns (as for :func:`~thermogym.identification.n4sid.n4sid`).
+    orders : sequence of int
+        Orders to try (paper: 1..30).
+    scheme : {"paper", "kfold"}
+        See the module docstring.
+    disturbances, horizon, decimate, weighting, feedthrough, operating_point_mode
+        As :func:`~thermogym.identification.n4sid.n4sid`. ``horizon``
+        defaults to what the highest order needs.
+    x0 : {"estimate", "zero"}
+        Initial state of each tested experiment (and of each training
+        experiment in the regression).
+    tolerance : float
+        VA tolerance of :attr:`OrderCV.parsimonious_order` (fraction).
+
+    Returns
+    -------
+    OrderCV
+
+    Examples
+    --------
+    >>> from thermogym.identification.n4sid import simulate_ss
+    >>> rng = np.random.default_rng(3)
+    >>> A = np.diag([0.95, 0.8]); B = np.ones((2, 1)); C = np.array([[1.0, 1.0]])
+    >>> def run(seed):
+    ...     u = np.random.default_rng(seed).normal(size=(600, 1))
+    ...     y = simulate_ss(A, B, C, np.zeros((1, 1)), u)[:, 0] + 0.01 * rng.normal(size=600)
+    ...     return Recording(np.arange(600.0), {"u": u[:, 0], "y": y})
+    >>> cv = cross_validate_order([run(1), run(2)], ["u"], ["y"], range(1, 5), decimate=1)
+    >>> cv.parsimonious_order, bool(cv.va[1] > cv.va[0] + 0.05)
+    (2, True)
+    """
+    t_all = time.perf_counter()
+    if scheme not in SCHEMES:
+        raise ConfigError(f"scheme is {scheme!r}; expected one of {SCHEMES}")
+    fl = _as_folds(folds)
+    orders_a = np.array(sorted({int(n) for n in orders}), dtype=np.int64)
+    if orders_a.size == 0 or orders_a[0] < 1:
+        raise ConfigError(f"orders {list(orders)!r}: expected whole numbers >= 1")
+    probs: list[N4SIDProblem] = [
+        prepare_problem(
+            f,
+            inputs,
+            outputs,
+            disturbances=disturbances,
+            operating_point_mode=operating_point_mode,
+        )
+        for f in fl
+    ]
+    k = len(fl)
+    p = len(probs[0].outputs)
+    dts = {round(pr.dt, 12) for pr in probs}
+    if len(dts) > 1:
+        raise ConfigError(f"the folds have different sample periods {sorted(dts)} s")
+    train_sets = (
+        [[i] for i in range(k)]
+        if scheme == "paper"
+        else [[j for j in range(k) if j != i] for i in range(k)]
+    )
+    fits = np.full((orders_a.size, k, k), np.nan)
+    out_fits = np.full((orders_a.size, k, k, p), np.nan)
+    t_dec = t_mod = t_eval = 0.0
+    svs = []
+    settings: dict[str, Any] = {}
+    for i, ts in enumerate(train_sets):
+        t0 = time.perf_counter()
+        us = [u for j in ts for u in probs[j].us]
+        ys = [y for j in ts for y in probs[j].ys]
+        dec = n4sid_decompose(
+            us,
+            ys,
+            probs[0].dt,
+            horizon=horizon,
+            max_order=int(orders_a[-1]),
+            decimate=decimate,
+            weighting=weighting,
+        )
+        t_dec += time.perf_counter() - t0
+        svs.append(dec.singular_values)
+        settings = {
+            "horizon": dec.horizon,
+            "decimate": dec.decimate,
+            "weighting": weighting,
+            "feedthrough": feedthrough,
+            "x0": x0,
+            "operating_point_mode": operating_point_mode,
+            "inputs": probs[0].inputs + probs[0].disturbances,
+            "outputs": probs[0].outputs,
+        }
+        for o, n in enumerate(orders_a):
+            if n > dec.max_order:
+                raise IdentificationError(
+                    f"order {int(n)} exceeds what horizon {dec.horizon} supports "
+                    f"({dec.max_order}); pass a larger horizon"
+                )
+            t1 = time.perf_counter()
+            sys_ = dec.system(int(n), x0=x0, feedthrough=feedthrough)
+            t_mod += time.perf_counter() - t1
+            t2 = time.perf_counter()
+            for j in range(k):
+                vals = []
+                for u, y in zip(probs[j].us, probs[j].ys, strict=True):
+                    yh = sys_.predict(u, y, x0=x0)
+                    vals.append(np.atleast_1d(nrmse(y.T, yh.T)))
+                per = np.nanmean(np.stack(vals), axis=0)  # mean over the fold's experiments
+                out_fits[o, i, j] = per
+                fits[o, i, j] = float(np.nanmean(per))  # MNRMSE, eq (6)
+            t_eval += time.perf_counter() - t2
+    if scheme == "paper":
+        ta = np.array([train_validation_accuracy(f)[0] for f in fits])
+        va = np.array([train_validation_accuracy(f)[1] for f in fits])
+    else:
+        # model i: VA on the held-out fold i, TA on its training folds
+        ta = np.array([np.mean([np.mean(f[i, train_sets[i]]) for i in range(k)]) for f in fits])
+        va = np.array([np.mean([f[i, i] for i in range(k)]) for f in fits])
+    va_safe = np.where(np.isfinite(va), va, -np.inf)
+    best = int(orders_a[int(np.argmax(va_safe))])  # n* = argmax VA, eq (10)
+    parsimonious = int(orders_a[int(np.argmax(va_safe >= va_safe.max() - tolerance))])
+    return OrderCV(
+        orders=orders_a,
+        fits=fits,
+        output_fits=out_fits,
+        ta=ta,
+        va=va,
+        best_order=best,
+        singular_values=svs,
+        seconds={
+            "decomposition": t_dec,
+            "models": t_mod,
+            "evaluation": t_eval,
+            "total": time.perf_counter() - t_all,
+        },
+        folds=[[r.experiment_id or f"recording_{n}" for n, r in enumerate(f)] for f in fl],
+        scheme=scheme,
+        output_names=probs[0].outputs,
+        parsimonious_order=parsimonious,
+        tolerance=float(tolerance),
+        settings=settings,
+    )
