@@ -473,7 +473,7 @@ def test_rig_plant_differs_from_the_model_only_through_its_physics():
         sensor_noise=False, ambient_swing_K=0.0, ambient_C=24.0,
     )  # fmt: skip
     obs, _ = e.reset(seed=0)
-    assert obs[1] - obs[0] == pytest.approx(1.5, abs=1e-3)  # front housing reads 1.5 K high
+    assert obs[1] - obs[0] == pytest.approx(1.0, abs=1e-3)  # front housing reads 1 K high
 
 
 def test_network_rig_with_nonlinear_physics():

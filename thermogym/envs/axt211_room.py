@@ -274,63 +274,95 @@ def _segment(xb, u, kU, Tout, Qint, pb, L, hmax, kind, iref, P0, Q0):  # pragma:
     return E, Q, Q0
 
 
+# ------------------------------------------------------------------ lockstep kernel
+# As in axt211_valve: the plants of a batch advance in lockstep, RK4 sub-step s of every
+# plant of a block of W lanes per pass (each plant with its own step size and heater input;
+# plants with fewer sub-steps idle), in a branch-free loop over the lanes that vectorises;
+# the room model's lane step (room._rk4_room_lane) is _advance operation for operation and
+# the trapezoidal points are those of _segment, so results are bit for bit those of
+# stepping each plant alone. Parameter sets with an active actuator effect take the scalar
+# _room_dyn. A block lives in one flat array, row r of lane i at wb[r * W + i].
+
+_NQA = _ax._N_LANE - 1  # actuator lane rows copied into a block (without the plain flag)
+_NQR = _room._N_ROOM_LANE - _ax._N_LANE  # the room's lane rows
+_NQ = _NQA + _NQR
+(
+    _R_TP, _R_TG, _R_XP, _R_XV, _R_TR, _R_TA, _R_TS, _R_NON, _R_NTOT, _R_HON, _R_HOFF,
+    _R_MQON, _R_MQOFF, _R_CNT, _R_E, _R_QON, _R_QOFF, _R_P0, _R_Q0, _R_KU2, _R_TOUT,
+    _R_QINT, _R_TSUP, _R_BASE, _R_PW, _R_EXPV, _R_PWV, _R_H, _R_V2,
+) = range(_NQ, _NQ + 29)  # fmt: skip
+_R_K = _NQ + 29  # 6 rows: derivatives of the last stage (all states but x_V)
+_R_S = _R_K + 6  # 6 rows: their weighted RK4 sum so far
+_NROW = _R_S + 6
+
+
+@nb.njit(cache=True, inline="always")
+def _room_action(b, act, cfg, ctr):  # pragma: no cover - numba
+    # duty in [0, 1] of plant b, or -1 for an invalid action
+    a = act[b, 0]
+    if cfg[_AMODE] == 1.0:
+        if a != 0.0 and a != 1.0:
+            ctr[b, 3] = 1
+            return -1.0
+        return a
+    if not math.isfinite(a):
+        ctr[b, 3] = 1
+        return -1.0
+    return min(max(0.5 * (a + 1.0), 0.0), 1.0)
+
+
+@nb.njit(cache=True, inline="always")
+def _room_inputs(b, dist, tab, ctr, cfg):  # pragma: no cover - numba
+    # outdoor temperature and gains held over plant b's next period
+    t = dist[b, 1] + ctr[b, 0] * cfg[_T]
+    base = dist[b, 2]
+    Tout = _table(tab, b, 0, base, t)
+    occ = _occupied(t, cfg)
+    Qint = (cfg[_GO] if occ else cfg[_GU]) + _table(tab, b, 1, base, t)
+    return Tout, Qint
+
+
 @nb.njit(cache=True)
-def _room_row(
-    b, mode, act, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+def _room_dyn(xb, d, kU, Tout, Qint, pb, T, hmax, kind, Q0):  # pragma: no cover - numba
+    # one plant over one period by the model's scalar RK4 (actuator effects included): on
+    # for d·T, then off; returns the actuator energy [J], the heat [J] and the last Q_heat
+    iref = _room._inv_ref(pb)
+    E = 0.0
+    Qsum = 0.0
+    ton = d * T
+    if ton > 0.0:
+        P0 = _ax._power(xb[0], 1.0, kU, pb)[0]
+        e1, q1, Q0 = _segment(xb, 1.0, kU, Tout, Qint, pb, ton, hmax, kind, iref, P0, Q0)
+        E += e1
+        Qsum += q1
+    toff = T - ton
+    if toff > 1e-9 * T:
+        _, q1, Q0 = _segment(xb, 0.0, kU, Tout, Qint, pb, toff, hmax, kind, iref, 0.0, Q0)
+        Qsum += q1
+    return E, Qsum, Q0
+
+
+@nb.njit(cache=True)
+def _room_post(
+    b, mode, d, E, Qsum, xV0, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
 ):  # pragma: no cover - numba
-    # one plant: step (mode 0) or observe only (mode 1); returns 1 for an invalid action
+    # KPIs, reward and measurement of plant b after its step (mode 0) or at the start (1)
     T = cfg[_T]
-    hmax = cfg[_HMAX]
-    kind = int(cfg[_KIND])
     xb = x[b]
-    pb = p[b]
-    kU = dist[b, 0]
-    t0 = dist[b, 1]
     base = dist[b, 2]
     k = ctr[b, 0]
     ntp = ctr[b, 2]
     st_T = acc[b, _A_TPT : _A_TPT + 4]
     st_x = acc[b, _A_TPX : _A_TPX + 4]
-    d = 0.0
     Pm = 0.0
     Qm = 0.0
     r = 0.0
-    t = t0 + k * T
+    t = dist[b, 1] + k * T
     if mode == 1:
         ntp = tp_push(st_T, xb[0], cfg[_HT], tpbuf[b], ntp)
         tp_update(st_x, xb[3], cfg[_HX])
-        acc[b, _A_QLAST] = _room._emission(xb[4], xb[5], pb, _room._inv_ref(pb))
+        acc[b, _A_QLAST] = _room._emission(xb[4], xb[5], p[b], _room._inv_ref(p[b]))
     else:
-        a = act[b, 0]
-        if cfg[_AMODE] == 1.0:
-            if a != 0.0 and a != 1.0:
-                ctr[b, 3] = 1
-                return 1
-            d = a
-        else:
-            if not math.isfinite(a):
-                ctr[b, 3] = 1
-                return 1
-            d = min(max(0.5 * (a + 1.0), 0.0), 1.0)
-        Tout = _table(tab, b, 0, base, t)
-        occ = _occupied(t, cfg)
-        Qint = (cfg[_GO] if occ else cfg[_GU]) + _table(tab, b, 1, base, t)
-        xV0 = xb[3]
-        iref = _room._inv_ref(pb)
-        E = 0.0
-        Qsum = 0.0
-        Q0 = acc[b, _A_QLAST]
-        ton = d * T
-        if ton > 0.0:
-            P0 = _ax._power(xb[0], 1.0, kU, pb)[0]
-            e1, q1, Q0 = _segment(xb, 1.0, kU, Tout, Qint, pb, ton, hmax, kind, iref, P0, Q0)
-            E += e1
-            Qsum += q1
-        toff = T - ton
-        if toff > 1e-9 * T:
-            _, q1, Q0 = _segment(xb, 0.0, kU, Tout, Qint, pb, toff, hmax, kind, iref, 0.0, Q0)
-            Qsum += q1
-        acc[b, _A_QLAST] = Q0
         sw = 1.0 if (d > 0.0 and acc[b, _A_ON] == 0.0) else 0.0
         acc[b, _A_ON] = 1.0 if d >= 1.0 else 0.0
         TP = xb[0]
@@ -392,44 +424,409 @@ def _room_row(
     sig[b, 11] = obs[b, 3]
     sig[b, 12] = (cfg[_GO] if occ else cfg[_GU]) + _table(tab, b, 1, base, t)
     sig[b, 13] = r
-    return 0
+
+
+@nb.njit(cache=True, inline="always")
+def _quad_point(wb, W, i, sf, non, ntot, hon, hoff, ku2, R, Q, first):  # pragma: no cover
+    # trapezoidal ∫P_PTC dt (heater-on part) and ∫Q_heat dt (both parts) as in _segment:
+    # a point at state j = sf every QUAD_S seconds of a part and at its end; R, Q: R_PTC
+    # and Q_heat at that state; only at stage 1 of a sub-step (first)
+    P = ku2 * R / (R * R)  # (15) at u = 1, as axt211._power with R_source = 0
+    inon = first & (sf >= 1.0) & (sf <= non)
+    inoff = first & (sf > non) & (sf <= ntot)
+    cnt = wb[_R_CNT * W + i] + (1.0 if (inon | inoff) else 0.0)
+    due_on = inon & ((cnt == wb[_R_MQON * W + i]) | (sf == non))
+    due_off = inoff & ((cnt == wb[_R_MQOFF * W + i]) | (sf == ntot))
+    P0 = wb[_R_P0 * W + i]
+    Q0 = wb[_R_Q0 * W + i]
+    E = wb[_R_E * W + i]
+    Qon = wb[_R_QON * W + i]
+    Qoff = wb[_R_QOFF * W + i]
+    wb[_R_E * W + i] = E + 0.5 * (P0 + P) * cnt * hon if due_on else E
+    wb[_R_QON * W + i] = Qon + 0.5 * (Q0 + Q) * cnt * hon if due_on else Qon
+    wb[_R_QOFF * W + i] = Qoff + 0.5 * (Q0 + Q) * cnt * hoff if due_off else Qoff
+    wb[_R_P0 * W + i] = P if (due_on | (first & (sf == 0.0))) else P0
+    wb[_R_Q0 * W + i] = Q if (due_on | due_off) else Q0
+    wb[_R_CNT * W + i] = 0.0 if (due_on | due_off) else cnt
+
+
+@nb.njit(cache=True, inline="always")
+def _stage_base(wb, W, i, xP, xV0, Tr, Ta, kind):  # pragma: no cover - numba
+    # the bases of the power laws of the next stage at its inputs (stroke xP, step-start
+    # valve stroke xV0, radiator Tr, zone Ta): emission, and the equal-percentage valve
+    qr = _room._room_lane_load(wb, _NQA, W, i)
+    wb[_R_BASE * W + i] = _room._emission_base(Tr, Ta, qr[4])
+    if kind != 0:
+        qa = _ax._lane_load(wb, 0, W, i)
+        wb[_R_EXPV * W + i] = _room._stroke_lane(xP, xV0, qa, qr[5]) - 1.0
+
+
+@nb.njit(cache=True, inline="always")
+def _powers(wb, W, kind):  # pragma: no cover - numba
+    # libm's pow, lane by lane, in a loop of its own: called inside the vectorised stage
+    # loop it would make the compiler save and restore every vector register around each
+    # call (measured 90 ns instead of 55 ns per lane and RK4 step)
+    for i in range(W):
+        wb[_R_PW * W + i] = wb[_R_BASE * W + i] ** wb[(_NQA + 9) * W + i]  # ^n_rad
+    if kind != 0:
+        for i in range(W):
+            wb[_R_PWV * W + i] = wb[(_NQA + 6) * W + i] ** wb[_R_EXPV * W + i]  # R_v^(h−1)
+
+
+@nb.njit(cache=True, inline="always")
+def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
+    # stage j (1-4, a compile-time constant) of RK4 sub-step sf of lane i:
+    # room._rk4_room_lane / _deriv_lane operation for operation, with the power laws from
+    # _powers and the sub-step's step size and heater input from _prepare
+    first = j == 1
+    last = j == 4
+    qa = _ax._lane_load(wb, 0, W, i)
+    qr = _room._room_lane_load(wb, _NQA, W, i)
+    QN = qr[8]
+    non = wb[_R_NON * W + i]
+    ntot = wb[_R_NTOT * W + i]
+    hon = wb[_R_HON * W + i]
+    hoff = wb[_R_HOFF * W + i]
+    h = wb[_R_H * W + i]
+    hh = 0.5 * h
+    ku2 = wb[_R_KU2 * W + i]
+    v2 = wb[_R_V2 * W + i]
+    Tsup = wb[_R_TSUP * W + i]
+    Tout = wb[_R_TOUT * W + i]
+    Qint = wb[_R_QINT * W + i]
+    x0 = wb[_R_TP * W + i]
+    x1 = wb[_R_TG * W + i]
+    x2 = wb[_R_XP * W + i]
+    x3 = wb[_R_XV * W + i]
+    x4 = wb[_R_TR * W + i]
+    x5 = wb[_R_TA * W + i]
+    x6 = wb[_R_TS * W + i]
+    # stage inputs x + c k, k the previous stage's derivative (loads outside the selects:
+    # a load under a condition keeps the loop from vectorising)
+    k0 = wb[(_R_K + 0) * W + i]
+    k1 = wb[(_R_K + 1) * W + i]
+    k2 = wb[(_R_K + 2) * W + i]
+    k3 = wb[(_R_K + 3) * W + i]
+    k4 = wb[(_R_K + 4) * W + i]
+    k5 = wb[(_R_K + 5) * W + i]
+    c = h if last else hh
+    TP = x0 if first else x0 + c * k0
+    TG = x1 if first else x1 + c * k1
+    xP = x2 if first else x2 + c * k2
+    Tr = x4 if first else x4 + c * k3
+    Ta = x5 if first else x5 + c * k4
+    Ts = x6 if first else x6 + c * k5
+    Q = _room._emission_signed(Tr, Ta, QN, wb[_R_PW * W + i])
+    pwv = wb[_R_PWV * W + i] if kind != 0 else 0.0
+    dTP, dTG, dxP, dTr, dTa, dTs, R = _room._deriv_lane(
+        TP, TG, xP, Tr, Ta, Ts, x3, v2, Tsup, Tout, Qint, Q, pwv, qa, qr, kind
+    )
+    _quad_point(wb, W, i, sf, non, ntot, hon, hoff, ku2, R, Q, first)
+    # RK4 sum with weights 1, 2, 2, 1, accumulated in _advance's order
+    m = 1.0 if last else 2.0
+    s0 = wb[(_R_S + 0) * W + i]
+    s1 = wb[(_R_S + 1) * W + i]
+    s2 = wb[(_R_S + 2) * W + i]
+    s3 = wb[(_R_S + 3) * W + i]
+    s4 = wb[(_R_S + 4) * W + i]
+    s5 = wb[(_R_S + 5) * W + i]
+    s0 = dTP if first else s0 + m * dTP
+    s1 = dTG if first else s1 + m * dTG
+    s2 = dxP if first else s2 + m * dxP
+    s3 = dTr if first else s3 + m * dTr
+    s4 = dTa if first else s4 + m * dTa
+    s5 = dTs if first else s5 + m * dTs
+    wb[(_R_K + 0) * W + i] = dTP
+    wb[(_R_K + 1) * W + i] = dTG
+    wb[(_R_K + 2) * W + i] = dxP
+    wb[(_R_K + 3) * W + i] = dTr
+    wb[(_R_K + 4) * W + i] = dTa
+    wb[(_R_K + 5) * W + i] = dTs
+    wb[(_R_S + 0) * W + i] = s0
+    wb[(_R_S + 1) * W + i] = s1
+    wb[(_R_S + 2) * W + i] = s2
+    wb[(_R_S + 3) * W + i] = s3
+    wb[(_R_S + 4) * W + i] = s4
+    wb[(_R_S + 5) * W + i] = s5
+    # after stage 4: the new state (lanes past their last sub-step keep theirs)
+    run = last & (sf < ntot)
+    w = h / 6.0
+    n2 = _ax._min(_ax._max(x2 + w * s2, qa[16]), qa[17])  # end stops and (20), as in _advance
+    n3 = _ax._backlash_lane(n2, x3, qa[18], qa[19])
+    y2 = n2 if run else x2
+    y3 = n3 if run else x3
+    y4 = x4 + w * s3 if run else x4
+    y5 = x5 + w * s4 if run else x5
+    wb[_R_TP * W + i] = x0 + w * s0 if run else x0
+    wb[_R_TG * W + i] = x1 + w * s1 if run else x1
+    wb[_R_XP * W + i] = y2
+    wb[_R_XV * W + i] = y3
+    wb[_R_TR * W + i] = y4
+    wb[_R_TA * W + i] = y5
+    wb[_R_TS * W + i] = x6 + w * s5 if run else x6
+    # arguments of the powers of the next stage (stage 1 of the next sub-step after 4)
+    c2 = hh if j < 3 else h
+    _stage_base(
+        wb, W, i, y2 if last else x2 + c2 * dxP, y3 if last else x3,
+        y4 if last else x4 + c2 * dTr, y5 if last else x5 + c2 * dTa, kind,
+    )  # fmt: skip
+
+
+@nb.njit(cache=True, inline="always")
+def _prepare(wb, W, sf):  # pragma: no cover - numba
+    # step size and (k_U u)² of sub-step sf per lane: the on or the off part. Kept apart
+    # from the stage loops: there LLVM would turn these selects of two loaded values into
+    # a load from a selected address, and then refuse to vectorise ("indirect dependence")
+    for i in range(W):
+        on = sf < wb[_R_NON * W + i]
+        wb[_R_H * W + i] = wb[_R_HON * W + i] if on else wb[_R_HOFF * W + i]
+        wb[_R_V2 * W + i] = wb[_R_KU2 * W + i] if on else 0.0
+
+
+def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
+    """Compiled lockstep of a block of W lanes (valve characteristic ``kind``).
+
+    W, the stage number and ``kind`` are compile-time constants of each compiled loop
+    (closure variables): the row stride is then known, the stage's selects fold away, and
+    each loop over the lanes vectorises. The four stage loops are compiled apart (numba's
+    IR inlining of all four into one function took minutes to compile).
+    """
+
+    def stage_loop(j):  # type: ignore[no-untyped-def]
+        @nb.njit(cache=True, error_model="numpy")
+        def stage(wb, sf):  # pragma: no cover - numba
+            for i in range(W):
+                _stage(wb, W, i, sf, j, kind)
+
+        return stage
+
+    st1, st2, st3, st4 = stage_loop(1), stage_loop(2), stage_loop(3), stage_loop(4)
+
+    @nb.njit(cache=True, error_model="numpy")
+    def lockstep(wb, nmax):  # pragma: no cover - numba
+        # nmax RK4 sub-steps of the W lanes of block wb, then the last trapezoidal points
+        for i in range(W):
+            _stage_base(
+                wb, W, i, wb[_R_XP * W + i], wb[_R_XV * W + i], wb[_R_TR * W + i],
+                wb[_R_TA * W + i], kind,
+            )  # fmt: skip
+        for s in range(nmax):
+            sf = float(s)
+            _prepare(wb, W, sf)
+            _powers(wb, W, kind)
+            st1(wb, sf)
+            _powers(wb, W, kind)
+            st2(wb, sf)
+            _powers(wb, W, kind)
+            st3(wb, sf)
+            _powers(wb, W, kind)
+            st4(wb, sf)
+        _powers(wb, W, 0)
+        sf = float(nmax)
+        for i in range(W):
+            qa = _ax._lane_load(wb, 0, W, i)
+            R = _ax._lane_resistance(wb[_R_TP * W + i], qa)
+            Q = _room._emission_signed(
+                wb[_R_TR * W + i], wb[_R_TA * W + i], wb[(_NQA + 8) * W + i], wb[_R_PW * W + i]
+            )
+            _quad_point(
+                wb, W, i, sf, wb[_R_NON * W + i], wb[_R_NTOT * W + i], wb[_R_HON * W + i],
+                wb[_R_HOFF * W + i], wb[_R_KU2 * W + i], R, Q, True,
+            )  # fmt: skip
+
+    return lockstep, (st1, st2, st3, st4)
+
+
+_BW = 32  # lanes of a full block (77 rows x 32 lanes x 8 B = 19 KiB: L1 cache)
+_lockstep_32, _st_32 = _make_lockstep(32, 0)
+_lockstep_8, _st_8 = _make_lockstep(8, 0)
+_lockstep_1, _st_1 = _make_lockstep(1, 0)
+_lockstep_32_eq, _st_32_eq = _make_lockstep(32, 1)
+_lockstep_8_eq, _st_8_eq = _make_lockstep(8, 1)
+_lockstep_1_eq, _st_1_eq = _make_lockstep(1, 1)
+_STAGE_LOOPS = (*_st_32, *_st_8, *_st_1, *_st_32_eq, *_st_8_eq, *_st_1_eq)
 
 
 @nb.njit(cache=True)
-def _room_kernel(
-    mode, act, active, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+def _part(L, hmax):  # pragma: no cover - numba
+    # sub-steps, step and trapezoidal interval (in steps) of a part of length L, as _segment
+    n = max(1, math.ceil(L / hmax - 1e-9))
+    h = L / n
+    return n, h, float(max(1, int(QUAD_S / h + 1e-9)))
+
+
+@nb.njit(cache=True)
+def _room_block(
+    b0, W, wb, act, active, x, p, lanes, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0, ok, lo
 ):  # pragma: no cover - numba
-    for b in range(x.shape[0]):
-        if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
-            return 2  # a turning-point buffer is full: grow it before any plant moves
+    # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid
+    T = cfg[_T]
+    hmax = cfg[_HMAX]
+    kind = int(cfg[_KIND])
     status = 0
-    for b in range(x.shape[0]):
+    nmax = 0
+    for i in range(W):
+        b = b0 + i
+        j = b - lo
+        non, n_off, hon, hoff, mqon, mqoff = 0, 0, 0.0, 0.0, 1.0, 1.0
+        Tout, Qint = 0.0, 0.0
         if active[b]:
-            s = _room_row(
-                b, mode, act, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
-            )
-            status = max(status, s)
+            d = _room_action(b, act, cfg, ctr)
+            if d < 0.0:
+                status = 1
+            else:
+                ok[j] = True
+                dd[j] = d
+                xv0[j] = x[b, 3]
+                Tout, Qint = _room_inputs(b, dist, tab, ctr, cfg)
+                if lanes[_ax._LN_PLAIN, b] == 0.0:  # actuator effects: the scalar kernel
+                    EE[j], QQ[j], acc[b, _A_QLAST] = _room_dyn(
+                        x[b], d, dist[b, 0], Tout, Qint, p[b], T, hmax, kind, acc[b, _A_QLAST]
+                    )
+                else:
+                    ton = d * T
+                    toff = T - ton
+                    if ton > 0.0:
+                        non, hon, mqon = _part(ton, hmax)
+                    if toff > 1e-9 * T:
+                        n_off, hoff, mqoff = _part(toff, hmax)
+        ntot = non + n_off
+        nmax = max(nmax, ntot)
+        for k in range(_NQA):
+            wb[k * W + i] = lanes[k, b]
+        for k in range(_NQR):
+            wb[(_NQA + k) * W + i] = lanes[_ax._N_LANE + k, b]
+        for k in range(7):
+            wb[(_R_TP + k) * W + i] = x[b, k]
+        wb[_R_NON * W + i] = non
+        wb[_R_NTOT * W + i] = ntot
+        wb[_R_HON * W + i] = hon
+        wb[_R_HOFF * W + i] = hoff
+        wb[_R_MQON * W + i] = mqon
+        wb[_R_MQOFF * W + i] = mqoff
+        wb[_R_CNT * W + i] = 0.0
+        wb[_R_E * W + i] = 0.0
+        wb[_R_QON * W + i] = 0.0
+        wb[_R_QOFF * W + i] = 0.0
+        wb[_R_P0 * W + i] = 0.0
+        wb[_R_Q0 * W + i] = acc[b, _A_QLAST]
+        wb[_R_KU2 * W + i] = dist[b, 0] * dist[b, 0]
+        wb[_R_TOUT * W + i] = Tout
+        wb[_R_QINT * W + i] = Qint
+        wb[_R_TSUP * W + i] = _room._supply(Tout, p[b])  # heating curve, T_out held
+        for k in range(6):
+            wb[(_R_K + k) * W + i] = 0.0
+            wb[(_R_S + k) * W + i] = 0.0
+    if nmax > 0:
+        if kind == 0:
+            if W == 32:
+                _lockstep_32(wb, nmax)
+            elif W == 8:
+                _lockstep_8(wb, nmax)
+            else:
+                _lockstep_1(wb, nmax)
+        elif W == 32:
+            _lockstep_32_eq(wb, nmax)
+        elif W == 8:
+            _lockstep_8_eq(wb, nmax)
+        else:
+            _lockstep_1_eq(wb, nmax)
+        for i in range(W):
+            ntot = wb[_R_NTOT * W + i]
+            if ntot > 0.0:
+                b = b0 + i
+                for k in range(7):
+                    x[b, k] = wb[(_R_TP + k) * W + i]
+                non = wb[_R_NON * W + i]
+                E = 0.0  # sums as in _room_dyn: E = 0 + E_on, Q = 0 + Q_on + Q_off
+                Qsum = 0.0
+                if non > 0.0:
+                    E += wb[_R_E * W + i]
+                    Qsum += wb[_R_QON * W + i]
+                if ntot > non:
+                    Qsum += wb[_R_QOFF * W + i]
+                EE[b - lo] = E
+                QQ[b - lo] = Qsum
+                acc[b, _A_QLAST] = wb[_R_Q0 * W + i]
     return status
 
 
-@nb.njit(cache=True, parallel=True)
-def _room_parallel(
-    mode, act, active, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
-):  # pragma: no cover - numba
-    # one plant per thread; each writes only its own rows, so results equal the serial ones
-    for b in range(x.shape[0]):
+@nb.njit(cache=True)
+def _room_rows(
+    lo, hi, mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs,
+    out, sig,
+):  # fmt: skip  # pragma: no cover - numba
+    # plants lo..hi-1: step (mode 0: lockstep dynamics, then KPIs and measurement per plant)
+    # or observe (mode 1); returns 1 if an action was invalid (that plant does not move)
+    n = hi - lo
+    dd = np.zeros(n)
+    EE = np.zeros(n)
+    QQ = np.zeros(n)
+    xv0 = np.zeros(n)
+    ok = np.zeros(n, dtype=np.bool_)
+    status = 0
+    if mode == 0:
+        wb = np.empty(_NROW * _BW)
+        b = lo
+        while b < hi:
+            W = _BW if hi - b >= _BW else (8 if hi - b >= 8 else 1)
+            s = _room_block(
+                b, W, wb, act, active, x, p, lanes, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0,
+                ok, lo,
+            )  # fmt: skip
+            status = max(status, s)
+            b += W
+    for j in range(n):
+        b = lo + j
+        if (mode == 0 and ok[j]) or (mode == 1 and active[b]):
+            _room_post(
+                b, mode, dd[j], EE[j], QQ[j], xv0[j], x, p, dist, tab, acc, tpbuf, ctr, noise,
+                meas, cfg, obs, out, sig,
+            )  # fmt: skip
+    return status
+
+
+@nb.njit(cache=True)
+def _tp_full(active, ctr, tpbuf):  # pragma: no cover - numba
+    for b in range(active.shape[0]):
         if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
-            return 2
-    for i in nb.prange(x.shape[0]):
-        b = np.int64(i)  # the prange index is unsigned; keep index arithmetic signed
-        if active[b]:
-            _room_row(
-                b, mode, act, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
-            )
-    for b in range(x.shape[0]):
-        if active[b] and ctr[b, 3] != 0:
-            return 1
-    return 0
+            return True  # a turning-point buffer is full: grow it before any plant moves
+    return False
+
+
+@nb.njit(cache=True)
+def _room_step(
+    mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+):  # pragma: no cover - numba
+    if _tp_full(active, ctr, tpbuf):
+        return 2
+    return _room_rows(
+        0, x.shape[0], mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas,
+        cfg, obs, out, sig,
+    )  # fmt: skip
+
+
+@nb.njit(cache=True, parallel=True)
+def _room_step_parallel(
+    mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig,
+    nch,
+):  # fmt: skip  # pragma: no cover - numba
+    # nch chunks of whole blocks on the threads; each writes only its own rows, so results
+    # equal the serial ones
+    if _tp_full(active, ctr, tpbuf):
+        return 2
+    B = x.shape[0]
+    nblk = -(-B // _BW)
+    nch = min(nch, nblk)
+    st = np.zeros(nch, dtype=np.int64)
+    for c in nb.prange(nch):
+        lo = (nblk * c // nch) * _BW
+        hi = min((nblk * (c + 1) // nch) * _BW, B)
+        st[c] = _room_rows(
+            lo, hi, mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas,
+            cfg, obs, out, sig,
+        )  # fmt: skip
+    return st.max()
 
 
 @nb.njit
@@ -441,6 +838,7 @@ def _room_rollout(
     active,
     x,
     p,
+    lanes,
     dist,
     tab,
     acc,
@@ -457,9 +855,10 @@ def _room_rollout(
     total = 0.0
     for i in range(n):
         act[0, 0] = ctrl(obs[0], cstate)
-        status = _room_kernel(
-            0, act, active, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
-        )
+        status = _room_step(
+            0, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out,
+            sig,
+        )  # fmt: skip
         if status != 0:
             return status, i, total
         total += out[0, 0]
@@ -468,7 +867,11 @@ def _room_rollout(
     return 0, n, total
 
 
-for _k in (_room_row, _room_kernel, _room_parallel):
+for _k in (
+    _room_dyn, _room_post, _lockstep_32, _lockstep_8,
+    _lockstep_1, _lockstep_32_eq, _lockstep_8_eq, _lockstep_1_eq, *_STAGE_LOOPS, _part,
+    _room_block, _room_rows, _tp_full, _room_step, _room_step_parallel,
+):  # fmt: skip
     cache_depends_on(_k, _ax, _room, _kpis, _kernels)
 
 
@@ -562,6 +965,7 @@ class _RoomEngine(Engine):
         )  # fmt: skip
         self.x = np.zeros((B, 7))
         self.p = np.zeros((B, model.full_theta(plant.theta).shape[1]))
+        self.lanes = np.zeros((_room._N_ROOM_LANE, B))  # lockstep kernel's lane table, from p
         self.dist = np.zeros((B, 3))
 
     @property
@@ -585,6 +989,7 @@ class _RoomEngine(Engine):
 
     def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
         self.p[b] = self.model.full_theta(theta)[0]  # type: ignore[attr-defined]
+        _room._room_lane_column(self.p[b], self.lanes, b)
 
     def _reset_row(self, b: int, rng: np.random.Generator) -> None:
         cfg = self.cfg
@@ -620,14 +1025,14 @@ class _RoomEngine(Engine):
         self.x[b] = (Tz, Tz, -c, 0.0, Tz, Tz, Ts)
 
     def _kernel(self, mode: int) -> int:
-        kernel = _room_parallel if self.parallel and self.B > 1 else _room_kernel
-        return int(
-            kernel(
-                mode, self.act, self.active, self.x, self.p, self.dist, self.tab, self.acc,
-                self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv, self.obs, self.out,
-                self.sig,
-            )
+        args = (
+            mode, self.act, self.active, self.x, self.p, self.lanes, self.dist, self.tab,
+            self.acc, self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv, self.obs,
+            self.out, self.sig,
         )  # fmt: skip
+        if self.parallel and self.B > _BW:
+            return int(_room_step_parallel(*args, nb.get_num_threads()))
+        return int(_room_step(*args))
 
     def kpis(self, b: int) -> dict[str, float]:
         a = self.acc[b]
@@ -671,7 +1076,7 @@ class _RoomEngine(Engine):
             if self.ctr[0, 2] + n >= self.tpbuf.shape[1] - 1:
                 self.tpbuf = np.concatenate([self.tpbuf, np.zeros_like(self.tpbuf)], axis=1)
             status, i, r = _room_rollout(
-                controller, state, n, self.act, self.active, self.x, self.p, self.dist,
+                controller, state, n, self.act, self.active, self.x, self.p, self.lanes, self.dist,
                 self.tab, self.acc, self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv,
                 self.obs, self.out, self.sig,
             )  # fmt: skip

@@ -653,6 +653,143 @@ def _output_kernel(
         _outputs(x[b], u[b, 0], u[b, 1], theta[b], y[b])
 
 
+# ----------------------------------------------------------------------------- lockstep lanes
+# Batch-innermost stepping for the environments' step kernels: many systems ("lanes") advance
+# together, one RK4 step of every lane per pass over the batch, each lane with its own step
+# size and input (per-plant PWM segments). The functions below are branch-free (selects
+# instead of jumps), so that a loop over lanes vectorises; their arithmetic is that of
+# _rhs/_advance operation for operation (same order; numba does not contract to fused
+# multiply-adds), so a lane reproduces _advance bit for bit for parameter sets without an
+# active physical effect (row _LN_PLAIN; sets with effects need the scalar _advance).
+
+#: Rows of the lane table, one column per system (see :func:`_lane_column`).
+(
+    _LN_R0, _LN_R1, _LN_R2, _LN_R3, _LN_R4, _LN_R5, _LN_SHI, _LN_LPG, _LN_LGU, _LN_ICP,
+    _LN_ICG, _LN_KA, _LN_KB, _LN_KC, _LN_T0, _LN_ITAU, _LN_LO, _LN_HI, _LN_C, _LN_XMAX,
+    _LN_PLAIN,
+) = range(21)  # fmt: skip
+_N_LANE = 21
+
+
+@nb.njit(cache=True, inline="always")
+def _max(a: float, b: float) -> float:
+    # the builtin max(a, b) of numba (b if b > a else a, NaN in a propagates), written out:
+    # numba's builtin is a separate overload that does not always inline into a loop, and
+    # a loop with a call in it does not vectorise
+    return b if b > a else a
+
+
+@nb.njit(cache=True, inline="always")
+def _min(a: float, b: float) -> float:
+    # the builtin min(a, b) of numba (b if b < a else a), written out (see _max)
+    return b if b < a else a
+
+
+@nb.njit(cache=True)
+def _lane_column(p: NDArray[np.float64], out: NDArray[np.float64], b: int) -> None:
+    """Fill column ``b`` of a lane table ``out`` (_N_LANE, B) from a full kernel vector ``p``.
+
+    Rows: R_0..R_5, dR/dT at 101 °C (linear extension of (14)), λ_PG, λ_GU, 1/C_P, 1/C_G,
+    k_P coefficients a, b, c (21), T_P0, 1/τ_P, end stops −c and x_max + c, play c, x_max,
+    and 1.0 when no physical effect is active (L_melt = n_conv = R_source = 0).
+    """
+    for j in range(6):
+        out[_LN_R0 + j, b] = p[_I_R + j]
+    out[_LN_SHI, b] = _ptc_poly(_T_HI, p)[1]
+    out[_LN_LPG, b] = p[_I_LPG]
+    out[_LN_LGU, b] = p[_I_LGU]
+    out[_LN_ICP, b] = 1.0 / p[_I_CP]
+    out[_LN_ICG, b] = 1.0 / p[_I_CG]
+    out[_LN_KA, b] = p[_I_KA]
+    out[_LN_KB, b] = p[_I_KB]
+    out[_LN_KC, b] = p[_I_KC]
+    out[_LN_T0, b] = p[_I_T0]
+    out[_LN_ITAU, b] = 1.0 / p[_I_TAU]
+    out[_LN_LO, b] = -p[_I_C]
+    out[_LN_HI, b] = p[_I_XMAX] + p[_I_C]
+    out[_LN_C, b] = p[_I_C]
+    out[_LN_XMAX, b] = p[_I_XMAX]
+    plain = p[_I_L] == 0.0 and p[_I_NCONV] == 0.0 and p[_I_RS] == 0.0
+    out[_LN_PLAIN, b] = 1.0 if plain else 0.0
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_load(wb: NDArray[np.float64], o: int, W: int, i: int) -> tuple:  # type: ignore[type-arg]
+    # lane i's parameters from a block array holding lane-table rows o.. with row length W
+    return (
+        wb[o * W + i], wb[(o + 1) * W + i], wb[(o + 2) * W + i], wb[(o + 3) * W + i],
+        wb[(o + 4) * W + i], wb[(o + 5) * W + i], wb[(o + 6) * W + i], wb[(o + 7) * W + i],
+        wb[(o + 8) * W + i], wb[(o + 9) * W + i], wb[(o + 10) * W + i], wb[(o + 11) * W + i],
+        wb[(o + 12) * W + i], wb[(o + 13) * W + i], wb[(o + 14) * W + i],
+        wb[(o + 15) * W + i], wb[(o + 16) * W + i], wb[(o + 17) * W + i],
+        wb[(o + 18) * W + i], wb[(o + 19) * W + i],
+    )  # fmt: skip
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_resistance(TP: float, q: tuple) -> float:  # type: ignore[type-arg]
+    # (14) as _resistance: the polynomial at T_P clamped to [30, 101] °C (Horner, same order
+    # as _ptc_poly), plus the linear extension above 101 °C (adds exactly 0.0 below it)
+    r0, r1, r2, r3, r4, r5, s_hi = q[0], q[1], q[2], q[3], q[4], q[5], q[6]
+    tau = (_min(_max(TP, _T_LO), _T_HI) - 65.0) / 35.0
+    R = ((((r5 * tau + r4) * tau + r3) * tau + r2) * tau + r1) * tau + r0
+    return R + s_hi * _max(TP - _T_HI, 0.0)
+
+
+@nb.njit(cache=True, inline="always")
+def _rhs_lane(
+    TP: float,
+    TG: float,
+    xP: float,
+    v2: float,
+    TU: float,
+    q: tuple,  # type: ignore[type-arg]
+) -> tuple[float, float, float, float]:
+    # _rhs without effects, branch-free; v2 = (k_U u)²; also returns R_PTC at (TP, TG, xP)
+    lpg, lgu, icp, icg, ka, kb, kc, t0, itau, lo, hi = (
+        q[7], q[8], q[9], q[10], q[11], q[12], q[13], q[14], q[15], q[16], q[17]
+    )  # fmt: skip
+    R = _lane_resistance(TP, q)
+    q_pg = lpg * (TP - TG)
+    dTP = (v2 / R - q_pg) * icp  # (15), (17)
+    dTG = (q_pg - lgu * (TG - TU)) * icg  # (18)
+    xpos = _max(xP, 0.0)
+    dx = (((ka * xpos + kb) * xpos + kc) * (TP - t0) - xP) * itau  # (19), (21)
+    stop = ((xP >= hi) & (dx > 0.0)) | ((xP <= lo) & (dx < 0.0))  # end stops
+    return dTP, dTG, 0.0 if stop else dx, R
+
+
+@nb.njit(cache=True, inline="always")
+def _backlash_lane(xP: float, xV_prev: float, c: float, xmax: float) -> float:
+    # (20) as _backlash, with selects
+    xV = xP + c if xP < xV_prev - c else (xP - c if xP > xV_prev + c else xV_prev)
+    return _min(_max(xV, 0.0), xmax)
+
+
+@nb.njit(cache=True, inline="always")
+def _rk4_lane(
+    TP: float,
+    TG: float,
+    xP: float,
+    xV: float,
+    v2: float,
+    TU: float,
+    h: float,
+    q: tuple,  # type: ignore[type-arg]
+) -> tuple[float, float, float, float, float]:
+    """One RK4 step of one lane as _advance (n = 1); also R_PTC at the start of the step."""
+    hh = 0.5 * h
+    a1, b1, c1, R = _rhs_lane(TP, TG, xP, v2, TU, q)
+    a2, b2, c2, _ = _rhs_lane(TP + hh * a1, TG + hh * b1, xP + hh * c1, v2, TU, q)
+    a3, b3, c3, _ = _rhs_lane(TP + hh * a2, TG + hh * b2, xP + hh * c2, v2, TU, q)
+    a4, b4, c4, _ = _rhs_lane(TP + h * a3, TG + h * b3, xP + h * c3, v2, TU, q)
+    TPn = TP + h / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+    TGn = TG + h / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
+    x = xP + h / 6.0 * (c1 + 2.0 * c2 + 2.0 * c3 + c4)
+    x = _min(_max(x, q[16]), q[17])
+    return TPn, TGn, x, _backlash_lane(x, xV, q[18], q[19]), R
+
+
 def ptc_resistance(
     T_P: NDArray[np.float64] | float, coeffs: NDArray[np.float64]
 ) -> NDArray[np.float64]:

@@ -193,12 +193,18 @@ from thermogym.models.axt211 import (
     _I_CP,
     _I_TAU,
     _I_XMAX,
+    _N_LANE,
     AXT211_EFFECTS,
     AXT211_PARAMETERS,
     AXT211_SIGNALS,
     _backlash,
+    _backlash_lane,
+    _lane_column,
+    _max,
+    _min,
     _power,
     _rhs,
+    _rhs_lane,
 )
 from thermogym.models.base import Model, Parameter, Signal
 
@@ -670,6 +676,187 @@ def _output_kernel(
             _fill(p, theta[b], cols)
         _outputs(x[b], u[b, 0], u[b, 1], u[b, 2], p, y[b])
     return -1
+
+
+# ----------------------------------------------------------------------------- lockstep lanes
+# Batch-innermost form of _advance for the environments' lockstep kernels (see the lane
+# functions of axt211): one RK4 step of one system ("lane") with its own step size and
+# heater input, branch-free so that a loop over lanes vectorises; the actuator part is
+# axt211's own lane right-hand side, the rest is _deriv operation for operation, so a lane
+# reproduces _advance bit for bit (for actuator parameter sets without an active effect).
+# The emission's power law calls libm's pow per lane (no vector pow without SVML): it is
+# most of the cost of a lane step.
+
+#: Rows of the room's lane table after the AXT211 rows (axt211._N_LANE of them).
+(
+    _LR_MCN, _LR_ICR, _LR_ICA, _LR_ICS, _LR_IREF, _LR_IXMAX, _LR_RV, _LR_RVH, _LR_QN, _LR_NR,
+    _LR_FINT, _LR_HAS, _LR_HAO, _LR_HSO,
+) = range(_N_LANE, _N_LANE + 14)  # fmt: skip
+_N_ROOM_LANE = _N_LANE + 14
+
+
+@nb.njit(cache=True)
+def _room_lane_column(p: NDArray[np.float64], out: NDArray[np.float64], b: int) -> None:
+    """Fill column ``b`` of a room lane table (_N_ROOM_LANE, B) from a full kernel vector.
+
+    The AXT211 rows (:func:`thermogym.models.axt211._lane_column`; the room's kernel vector
+    starts with the AXT211 one), then ṁ_nom c_w = Q_rad_nom/ΔT_w,nom, 1/C_rad, 1/C_a,
+    1/C_s, 1/ΔT_ref, 1/x_max, R_v, R_v^(h_0 − 1), Q_rad_nom, n_rad, f_int, H_as, H_ao, H_so.
+    """
+    _lane_column(p, out, b)
+    out[_LR_MCN, b] = p[_I_QN] / p[_I_DTW]
+    out[_LR_ICR, b] = 1.0 / p[_I_CR]
+    out[_LR_ICA, b] = 1.0 / p[_I_CA]
+    out[_LR_ICS, b] = 1.0 / p[_I_CS]
+    out[_LR_IREF, b] = _inv_ref(p)
+    out[_LR_IXMAX, b] = 1.0 / p[_I_XMAX]
+    out[_LR_RV, b] = p[_I_RV]
+    out[_LR_RVH, b] = p[_I_RV] ** (_H0 - 1.0)
+    out[_LR_QN, b] = p[_I_QN]
+    out[_LR_NR, b] = p[_I_NR]
+    out[_LR_FINT, b] = p[_I_FINT]
+    out[_LR_HAS, b] = p[_I_HAS]
+    out[_LR_HAO, b] = p[_I_HAO]
+    out[_LR_HSO, b] = p[_I_HSO]
+
+
+@nb.njit(cache=True, inline="always")
+def _room_lane_load(wb: NDArray[np.float64], o: int, W: int, i: int) -> tuple:  # type: ignore[type-arg]
+    # lane i's room parameters from a block array holding room lane rows o.. (row length W)
+    return (
+        wb[o * W + i], wb[(o + 1) * W + i], wb[(o + 2) * W + i], wb[(o + 3) * W + i],
+        wb[(o + 4) * W + i], wb[(o + 5) * W + i], wb[(o + 6) * W + i], wb[(o + 7) * W + i],
+        wb[(o + 8) * W + i], wb[(o + 9) * W + i], wb[(o + 10) * W + i],
+        wb[(o + 11) * W + i], wb[(o + 12) * W + i], wb[(o + 13) * W + i],
+    )  # fmt: skip
+
+
+@nb.njit(cache=True, inline="always")
+def _valve_lane(h: float, RvH: float, pwv: float, kind: int) -> float:
+    # _valve with selects: RvH = R_v^(h_0 − 1); pwv = R_v^(h − 1), evaluated by the caller
+    # (equal percentage only; kind is a compile-time constant of the calling kernel)
+    phi = h if kind == 0 else (h / _H0 * RvH if h < _H0 else pwv)
+    return 0.0 if h <= 0.0 else (1.0 if h >= 1.0 else phi)
+
+
+@nb.njit(cache=True, inline="always")
+def _stroke_lane(xP: float, xV0: float, qa: tuple, ixmax: float) -> float:  # type: ignore[type-arg]
+    # relative valve stroke h = x_V / x_max at a stage: (20) from the step-start stroke xV0
+    return _backlash_lane(xP, xV0, qa[18], qa[19]) * ixmax
+
+
+@nb.njit(cache=True, inline="always")
+def _emission_base(Tr: float, Ta: float, iref: float) -> float:
+    # |Δ| / ΔT_ref, the base of the emission's power law
+    return abs(Tr - Ta) * iref
+
+
+@nb.njit(cache=True, inline="always")
+def _emission_signed(Tr: float, Ta: float, QN: float, pw: float) -> float:
+    # _emission from pw = |Δ/ΔT_ref|^n_rad: Q_heat = Q_rad_nom sgn(Δ) pw (EN 442-2)
+    q = QN * pw
+    return q if Tr - Ta >= 0.0 else -q
+
+
+@nb.njit(cache=True, inline="always")
+def _deriv_lane(
+    TP: float,
+    TG: float,
+    xP: float,
+    Tr: float,
+    Ta: float,
+    Ts: float,
+    xV0: float,
+    v2: float,
+    Tsup: float,
+    Tout: float,
+    Qint: float,
+    Q: float,
+    pwv: float,
+    qa: tuple,  # type: ignore[type-arg]
+    qr: tuple,  # type: ignore[type-arg]
+    kind: int,
+) -> tuple[float, float, float, float, float, float, float]:
+    # _deriv for one lane, given the stage's emission Q (and pwv, see _valve_lane): the
+    # power laws are left to the caller, so that a kernel can evaluate them in a loop of
+    # their own; also returns R_PTC
+    mcn, icr, ica, ics, _, ixmax, _, RvH, _, _, f, Has, Hao, Hso = qr
+    dTP, dTG, dxP, R = _rhs_lane(TP, TG, xP, v2, Ta, qa)  # (17)-(19), T_U = T_zone
+    phi = _valve_lane(_stroke_lane(xP, xV0, qa, ixmax), RvH, pwv, kind)
+    # C_rad dT_rad/dt = ṁ c_w (T_sup − T_rad) − Q_heat,  ṁ c_w = φ Q_rad_nom / ΔT_w,nom
+    dTr = (phi * mcn * (Tsup - Tr) - Q) * icr
+    q_as = Has * (Ts - Ta)
+    # C_a dT_a/dt = Q_heat + f Q_int + H_as (T_s − T_a) + H_ao (T_out − T_a)
+    dTa = (Q + f * Qint + q_as + Hao * (Tout - Ta)) * ica
+    # C_s dT_s/dt = H_as (T_a − T_s) + H_so (T_out − T_s) + (1 − f) Q_int
+    dTs = (-q_as + Hso * (Tout - Ts) + (1.0 - f) * Qint) * ics
+    return dTP, dTG, dxP, dTr, dTa, dTs, R
+
+
+@nb.njit(cache=True, inline="always")
+def _deriv_lane_full(
+    x: tuple,  # type: ignore[type-arg]
+    xV0: float,
+    v2: float,
+    Tsup: float,
+    Tout: float,
+    Qint: float,
+    qa: tuple,  # type: ignore[type-arg]
+    qr: tuple,  # type: ignore[type-arg]
+    kind: int,
+) -> tuple[float, float, float, float, float, float, float, float]:
+    # _deriv_lane with its power laws (x = TP, TG, xP, Tr, Ta, Ts); also returns Q_heat
+    TP, TG, xP, Tr, Ta, Ts = x
+    iref, ixmax, Rv, QN, NR = qr[4], qr[5], qr[6], qr[8], qr[9]
+    Q = _emission_signed(Tr, Ta, QN, _emission_base(Tr, Ta, iref) ** NR)
+    pwv = Rv ** (_stroke_lane(xP, xV0, qa, ixmax) - 1.0) if kind != 0 else 0.0
+    d = _deriv_lane(TP, TG, xP, Tr, Ta, Ts, xV0, v2, Tsup, Tout, Qint, Q, pwv, qa, qr, kind)
+    return d[0], d[1], d[2], d[3], d[4], d[5], d[6], Q
+
+
+@nb.njit(cache=True, inline="always")
+def _rk4_room_lane(
+    x: tuple,  # type: ignore[type-arg]
+    v2: float,
+    Tsup: float,
+    Tout: float,
+    Qint: float,
+    h: float,
+    qa: tuple,  # type: ignore[type-arg]
+    qr: tuple,  # type: ignore[type-arg]
+    kind: int,
+) -> tuple:  # type: ignore[type-arg]
+    """One RK4 step of one lane as _advance (n = 1).
+
+    Returns the new state (7 values) and R_PTC and Q_heat at the start of the step.
+    """
+    TP, TG, xP, xV, Tr, Ta, Ts = x
+    hh = 0.5 * h
+    w = h / 6.0
+    a1, b1, c1, d1, e1, f1, R, Q = _deriv_lane_full(
+        (TP, TG, xP, Tr, Ta, Ts), xV, v2, Tsup, Tout, Qint, qa, qr, kind
+    )
+    a2, b2, c2, d2, e2, f2, _, _ = _deriv_lane_full(
+        (TP + hh * a1, TG + hh * b1, xP + hh * c1, Tr + hh * d1, Ta + hh * e1, Ts + hh * f1),
+        xV, v2, Tsup, Tout, Qint, qa, qr, kind,
+    )  # fmt: skip
+    a3, b3, c3, d3, e3, f3, _, _ = _deriv_lane_full(
+        (TP + hh * a2, TG + hh * b2, xP + hh * c2, Tr + hh * d2, Ta + hh * e2, Ts + hh * f2),
+        xV, v2, Tsup, Tout, Qint, qa, qr, kind,
+    )  # fmt: skip
+    a4, b4, c4, d4, e4, f4, _, _ = _deriv_lane_full(
+        (TP + h * a3, TG + h * b3, xP + h * c3, Tr + h * d3, Ta + h * e3, Ts + h * f3),
+        xV, v2, Tsup, Tout, Qint, qa, qr, kind,
+    )  # fmt: skip
+    TP += w * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
+    TG += w * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
+    xP += w * (c1 + 2.0 * c2 + 2.0 * c3 + c4)
+    Tr += w * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
+    Ta += w * (e1 + 2.0 * e2 + 2.0 * e3 + e4)
+    Ts += w * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
+    xP = _min(_max(xP, qa[16]), qa[17])  # end stops and (20), as in _advance
+    xV = _backlash_lane(xP, xV, qa[18], qa[19])
+    return TP, TG, xP, xV, Tr, Ta, Ts, R, Q
 
 
 def valve_flow(

@@ -22,6 +22,15 @@ Protocols
 Sensors: LVDT stroke σ = 5 µm; thermocouples σ = 0.1 K; power σ = 10 mW,
 resistance σ = 0.5 Ω (from voltage and current); supply σ = 20 mV. Sampling 1 s.
 
+Concealed effects (``effect_defaults``; magnitudes chosen to be physically
+plausible): a play of 0.25 mm in the rod coupling (5.5 % of the 4.5 mm
+stroke; the paper's Fig. 3 shows visible hysteresis); 500 J of latent heat
+melting around 57 °C (about 2.5 g of paraffin at ~200 J/g); a 15 Ω source
+resistance (an undersized 24 V transformer shared by several actuators plus
+the cable); natural convection of the housing with h ∝ ΔT^0.25 (laminar);
+a thermocouple lagging 45 s behind the cartridge; a 1.5 K thermocouple offset
+(type K class 2 allows ±2.5 K).
+
 Manufacturing spread (chosen here to give the spread the paper describes:
 large at high and medium PWM frequency, small for on-off operation): start
 temperature T_P0 ± 1 K, gain coefficients ± 8 %, cartridge capacity ± 5 %,
@@ -96,13 +105,14 @@ class AXT211Rig(Rig):
         "time_varying_parameter",
         "transport_delay",
     )
+    # Concealed-effect magnitudes (physically plausible, see the module docstring).
     effect_defaults: ClassVar[dict[str, dict[str, Any]]] = {
-        "backlash": {"c_backlash": 0.35},
+        "backlash": {"c_backlash": 0.25},
         "phase_change": {"L_melt": 500.0, "T_melt": 57.0, "w_melt": 2.0},
-        "supply_variation": {"R_source": 30.0},
-        "nonlinear_heat_transfer": {"n_conv": 0.33},
+        "supply_variation": {"R_source": 15.0},
+        "nonlinear_heat_transfer": {"n_conv": 0.25},
         "sensor_lag": {"signal": "T_P", "tau": 45.0},
-        "sensor_offset": {"signal": "T_P", "offset": 2.0},
+        "sensor_offset": {"signal": "T_P", "offset": 1.5},
         "sensor_drift": {"signal": "T_P", "rate": 0.5},
         "unmeasured_disturbance": {"signal": "T_U", "amplitude": 3.0, "period": 3600.0},
         "time_varying_parameter": {"name": "lambda_GU", "rate": 0.1},

@@ -33,6 +33,7 @@ __all__ = [
     "RigRun",
     "SensorSpec",
     "parse_effect",
+    "with_hidden_node",
 ]
 
 #: The effect vocabulary of DESIGN.md (stable names; extend, never rename).
@@ -263,6 +264,15 @@ class Rig:
             e.name for e in self.effects if e.name in getattr(probe, "physical_effects", {})
         ]
         model = get_model(self.model_name, effects=internal) if internal else probe
+        hidden = self._settings("missing_dynamics")
+        if hidden is not None:
+            model = with_hidden_node(
+                model,
+                str(hidden.get("node", "")),
+                capacity=float(hidden.get("C", 20000.0)),
+                conductance=float(hidden.get("G", 2.0)),
+                g_air=float(hidden.get("g_air", 0.0)),
+            )
         overrides: dict[str, float] = dict(self.specimen)
         for e in self.effects:
             settings = {**self.effect_defaults.get(e.name, {}), **e.params}
@@ -389,6 +399,88 @@ class Rig:
         }
 
 
+def with_hidden_node(
+    model: Model,
+    node: str,
+    *,
+    capacity: float,
+    conductance: float,
+    g_air: float = 0.0,
+) -> Model:
+    """A thermal-network plant with one extra capacitive node the model does not know.
+
+    The ``missing_dynamics`` effect of the network rigs: a heat capacity (a
+    machine-frame casting, a mounting bracket, a headstock) bolted to ``node``
+    through a contact conductance, optionally losing heat to the air. It adds
+    one slow state to the plant; every node balance stays eq (13) of
+    ``000_24627a5308ee07db.txt``::
+
+        C_h dT_h/dt = G_h (T_node − T_h) + g_h (T_air − T_h)
+        C_node dT_node/dt = ... + G_h (T_h − T_node)
+
+    Parameters
+    ----------
+    model : ThermalNetworkModel
+        The plant model (possibly with physical effects switched on).
+    node : str
+        Node the hidden mass is attached to.
+    capacity : float
+        Heat capacity of the hidden mass [J/K], > 0.
+    conductance : float
+        Contact conductance to ``node`` [W/K], > 0.
+    g_air : float
+        Conductance of the hidden mass to the air [W/K], >= 0.
+
+    Returns
+    -------
+    ThermalNetworkModel
+        Same signals, parameters and outputs; one more state, ``hidden_mass``.
+
+    Raises
+    ------
+    ConfigError
+        The model is not a thermal network, the node is unknown or a value is
+        not physical.
+    """
+    from thermogym.models.thermal_network import NetworkArrays, ThermalNetworkModel
+
+    if not isinstance(model, ThermalNetworkModel):
+        raise ConfigError(
+            f"effect 'missing_dynamics' adds a hidden thermal node; model {model.name!r} is "
+            "not a thermal network"
+        )
+    cls = type(model)
+    if node not in cls.nodes:
+        raise ConfigError(
+            f"effect 'missing_dynamics' names node {node!r}; the {model.name!r} nodes are "
+            f"{list(cls.nodes)}"
+        )
+    for what, v, lo in (("C", capacity, 0.0), ("G", conductance, 0.0)):
+        if not (math.isfinite(v) and v > lo):
+            raise ConfigError(f"effect 'missing_dynamics': {what} = {v!r}, expected > 0")
+    if not (math.isfinite(g_air) and g_air >= 0):
+        raise ConfigError(f"effect 'missing_dynamics': g_air = {g_air!r}, expected >= 0")
+    j = cls.nodes.index(node)
+
+    class _Hidden(cls):  # type: ignore[misc, valid-type]
+        nodes = (*cls.nodes, "hidden_mass")
+
+        def network(self, theta_full: NDArray[np.float64]) -> NetworkArrays:
+            net = super().network(theta_full)
+            B, n = net.C.shape
+            C = np.concatenate([net.C, np.full((B, 1), capacity)], axis=1)
+            G = np.zeros((B, n + 1, n + 1))
+            G[:, :n, :n] = net.G
+            G[:, j, n] = G[:, n, j] = conductance
+            g = np.concatenate([net.g_amb, np.full((B, 1), g_air)], axis=1)
+            q = np.concatenate([net.q, np.zeros((B, 1, net.q.shape[2]))], axis=1)
+            H = np.concatenate([net.H, np.zeros((net.H.shape[0], 1))], axis=1)
+            return NetworkArrays(C, G, g, q, H, net.h0)
+
+    _Hidden.__name__ = _Hidden.__qualname__ = cls.__name__
+    return _Hidden(effects=model.effects)
+
+
 def first_order_lag(x: NDArray[np.float64], tau: float, dt: float) -> NDArray[np.float64]:
     """Exact discrete first-order lag of a sampled signal (held between samples).
 
@@ -403,6 +495,7 @@ def first_order_lag(x: NDArray[np.float64], tau: float, dt: float) -> NDArray[np
     from scipy.signal import lfilter
 
     a = math.exp(-dt / tau)
-    y, _ = lfilter([0.0, 1.0 - a], [1.0, -a], x, zi=[a * x[0]])
-    y[0] = x[0]
+    # y[k+1] = a y[k] + (1 − a) x[k], y[0] = x[0] (the sensor starts in equilibrium); in
+    # scipy's transposed direct form the initial condition zi is y[0] itself
+    y, _ = lfilter([0.0, 1.0 - a], [1.0, -a], x, zi=[x[0]])
     return y
