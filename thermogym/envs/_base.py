@@ -444,7 +444,31 @@ class ThermoEnv(gym.Env[NDArray[np.float32], Any]):
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
+    #: Environment name used in messages (set by each environment class).
+    env_name: ClassVar[str] = ""
+    #: Configuration dataclass of the keyword arguments (set by each environment class).
+    config_cls: ClassVar[type]
+    #: Engine class, built as ``engine_cls(num_plants, config)``.
+    engine_cls: ClassVar[Callable[[int, Any], Engine]]
     _e: Engine
+
+    def __init__(
+        self,
+        *,
+        render_mode: str | None = None,
+        render_path: str | None = None,
+        record: bool | None = None,
+        **kwargs: Any,
+    ) -> None:
+        cfg = build_config(self.config_cls, self.env_name, kwargs)
+        self._setup(
+            self.engine_cls(1, cfg),
+            render_mode=render_mode,
+            render_path=render_path,
+            record=record,
+            randomize=cfg.randomize,
+            randomize_kwargs=cfg.randomize_kwargs,
+        )
 
     def _setup(
         self,
@@ -615,7 +639,29 @@ class ThermoVectorEnv(gym.vector.VectorEnv):
     results): worth it on idle cores, harmful on a busy shared machine.
     """
 
+    #: The single environment class whose configuration and engine this vector env uses.
+    single_env_cls: ClassVar[type[ThermoEnv]]
     _e: Engine
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        *,
+        autoreset_mode: str = "NextStep",
+        parallel: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        env = self.single_env_cls
+        n = int(check_number(env.env_name, "num_envs", num_envs, lo=1))
+        cfg = build_config(env.config_cls, env.env_name, kwargs)
+        self._setup(
+            env.engine_cls(n, cfg),
+            env,
+            autoreset_mode=autoreset_mode,
+            randomize=cfg.randomize,
+            randomize_kwargs=cfg.randomize_kwargs,
+            parallel=parallel,
+        )
 
     def _setup(
         self,

@@ -112,7 +112,6 @@ from thermogym.envs._base import (
     Engine,
     ThermoEnv,
     ThermoVectorEnv,
-    build_config,
     check_number,
     check_range,
     draw,
@@ -1113,23 +1112,9 @@ class AXT211RoomEnv(ThermoEnv):
     True
     """
 
-    def __init__(
-        self,
-        *,
-        render_mode: str | None = None,
-        render_path: str | None = None,
-        record: bool | None = None,
-        **kwargs: Any,
-    ) -> None:
-        cfg = build_config(RoomConfig, ENV, kwargs)
-        self._setup(
-            _RoomEngine(1, cfg),
-            render_mode=render_mode,
-            render_path=render_path,
-            record=record,
-            randomize=cfg.randomize,
-            randomize_kwargs=cfg.randomize_kwargs,
-        )
+    env_name = ENV
+    config_cls = RoomConfig
+    engine_cls = _RoomEngine
 
     def run_compiled(
         self,
@@ -1180,21 +1165,4 @@ class AXT211RoomVectorEnv(ThermoVectorEnv):
     Keyword arguments as :class:`RoomConfig`, plus ``num_envs`` and ``autoreset_mode``.
     """
 
-    def __init__(
-        self,
-        num_envs: int = 1,
-        *,
-        autoreset_mode: str = "NextStep",
-        parallel: bool = False,
-        **kwargs: Any,
-    ) -> None:
-        n = int(check_number(ENV, "num_envs", num_envs, lo=1))
-        cfg = build_config(RoomConfig, ENV, kwargs)
-        self._setup(
-            _RoomEngine(n, cfg),
-            AXT211RoomEnv,
-            autoreset_mode=autoreset_mode,
-            randomize=cfg.randomize,
-            randomize_kwargs=cfg.randomize_kwargs,
-            parallel=parallel,
-        )
+    single_env_cls = AXT211RoomEnv

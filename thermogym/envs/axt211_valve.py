@@ -101,7 +101,6 @@ from thermogym.envs._base import (
     Engine,
     ThermoEnv,
     ThermoVectorEnv,
-    build_config,
     check_number,
     check_range,
     draw,
@@ -785,23 +784,9 @@ class AXT211ValveEnv(ThermoEnv):
     True
     """
 
-    def __init__(
-        self,
-        *,
-        render_mode: str | None = None,
-        render_path: str | None = None,
-        record: bool | None = None,
-        **kwargs: Any,
-    ) -> None:
-        cfg = build_config(ValveConfig, ENV, kwargs)
-        self._setup(
-            _ValveEngine(1, cfg),
-            render_mode=render_mode,
-            render_path=render_path,
-            record=record,
-            randomize=cfg.randomize,
-            randomize_kwargs=cfg.randomize_kwargs,
-        )
+    env_name = ENV
+    config_cls = ValveConfig
+    engine_cls = _ValveEngine
 
 
 class AXT211ValveVectorEnv(ThermoVectorEnv):
@@ -812,21 +797,4 @@ class AXT211ValveVectorEnv(ThermoVectorEnv):
     ``parallel`` (one plant per thread).
     """
 
-    def __init__(
-        self,
-        num_envs: int = 1,
-        *,
-        autoreset_mode: str = "NextStep",
-        parallel: bool = False,
-        **kwargs: Any,
-    ) -> None:
-        n = int(check_number(ENV, "num_envs", num_envs, lo=1))
-        cfg = build_config(ValveConfig, ENV, kwargs)
-        self._setup(
-            _ValveEngine(n, cfg),
-            AXT211ValveEnv,
-            autoreset_mode=autoreset_mode,
-            randomize=cfg.randomize,
-            randomize_kwargs=cfg.randomize_kwargs,
-            parallel=parallel,
-        )
+    single_env_cls = AXT211ValveEnv

@@ -87,7 +87,6 @@ from thermogym.envs._base import (
     C_K,
     ThermoEnv,
     ThermoVectorEnv,
-    build_config,
     check_number,
     check_range,
     draw,
@@ -529,43 +528,12 @@ class SpindleThermalEnv(ThermoEnv):
     True
     """
 
-    def __init__(
-        self,
-        *,
-        render_mode: str | None = None,
-        render_path: str | None = None,
-        record: bool | None = None,
-        **kwargs: Any,
-    ) -> None:
-        cfg = build_config(SpindleConfig, ENV, kwargs)
-        self._setup(
-            _SpindleEngine(1, cfg),
-            render_mode=render_mode,
-            render_path=render_path,
-            record=record,
-            randomize=cfg.randomize,
-            randomize_kwargs=cfg.randomize_kwargs,
-        )
+    env_name = ENV
+    config_cls = SpindleConfig
+    engine_cls = _SpindleEngine
 
 
 class SpindleThermalVectorEnv(ThermoVectorEnv):
     """``num_envs`` spindles stepped by one compiled call (native vector env)."""
 
-    def __init__(
-        self,
-        num_envs: int = 1,
-        *,
-        autoreset_mode: str = "NextStep",
-        parallel: bool = False,
-        **kwargs: Any,
-    ) -> None:
-        n = int(check_number(ENV, "num_envs", num_envs, lo=1))
-        cfg = build_config(SpindleConfig, ENV, kwargs)
-        self._setup(
-            _SpindleEngine(n, cfg),
-            SpindleThermalEnv,
-            autoreset_mode=autoreset_mode,
-            randomize=cfg.randomize,
-            randomize_kwargs=cfg.randomize_kwargs,
-            parallel=parallel,
-        )
+    single_env_cls = SpindleThermalEnv
