@@ -34,6 +34,7 @@ def _load_builtin() -> None:
         ("thermogym.models.room", ("room",)),
         ("thermogym.models.linear", ("ss", "foptd")),
         ("thermogym.models.tclab", ("tclab",)),
+        ("thermogym.models.augmented", ("augmented",)),
     ):
         try:
             mod = __import__(module, fromlist=["MODELS"])

@@ -1,0 +1,219 @@
+"""Models diagnosis builds: the augmented model, the switched network, the rigs' hidden node."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import thermogym.identification.diagnosis  # noqa: F401  (registers the "augmented" model)
+from thermogym.errors import ConfigError, SimulationError
+from thermogym.fitresult import FitResult
+from thermogym.models.augmented import AugmentedModel
+from thermogym.models.fastnet import LossNetwork, fast_or_none
+from thermogym.models.linear import FOPTDModel
+from thermogym.models.registry import get_model
+from thermogym.rigs import get_rig, run_experiment
+from thermogym.rigs.base import first_order_lag, with_hidden_node
+
+_BASE = {
+    "inputs": ["u"],
+    "outputs": ["y", "y2"],
+    "disturbances": ["Ta"],
+    "T": [[100.0, 300.0], [50.0, 80.0]],
+    "K": [[2.0, 1.0], [1.0, 1.0]],
+    "offsets": True,
+}
+_SPECS = [
+    ("transport_delay", "u", {"history": 20}),
+    ("unmeasured_disturbance", "Ta", {"period": 500.0}),
+    ("input_nonlinearity", "u", {"u_ref": 1.0}),
+    ("missing_dynamics", "y", {"sources": ["u", "Ta"]}),
+    ("input_dependent_heat_transfer", "y", {"share": "all", "reference": "Ta"}),
+    ("input_dependent_heat_transfer", "y2", {"share": "all"}),
+    ("nonlinear_heat_transfer", "y", {"reference": "Ta"}),
+    ("time_varying_parameter", "y", {}),
+    ("backlash", "y", {}),
+    ("residual_ode", "y2", {"terms": ["e", "dT|dT|", "u"]}),
+    ("sensor_lag", "y", {}),
+    ("sensor_offset", "y", {}),
+    ("sensor_drift", "y", {}),
+    ("unmeasured_disturbance", "y2", {"period": 300.0}),
+]
+_VALUES = {
+    "delay_u": 7.3,
+    "dist_sin_Ta": 1.0,
+    "dist_cos_Ta": 0.5,
+    "alpha_u": 1.3,
+    "md_K_y__u": 0.5,
+    "md_K_y__Ta": -0.2,
+    "md_T_y": 40.0,
+    "gamma_y": 0.3,
+    "tv_rate_y": 0.2,
+    "backlash_y": 0.2,
+    "tau_lag_y": 15.0,
+    "offset_y": 0.4,
+    "drift_y": 1.0,
+    "beta_all": 0.7,
+    "dist_sin_y2": 0.3,
+    "c_e_y2": -0.01,
+    "c_dT2_y2": -0.001,
+    "c_u_y2": 0.002,
+    "y0_y": 20.0,
+    "y0_y2": 21.0,
+}
+
+
+def _u(T=400):
+    k = np.arange(T)
+    return np.column_stack([(k % 100 < 50) * 1.5, 20 + np.sin(k / 30)])
+
+
+@pytest.mark.parametrize("i", [*range(len(_SPECS)), None])
+def test_stepping_reproduces_simulation(i):
+    specs = _SPECS if i is None else [_SPECS[i]]
+    augs = [{"effect": e, "signal": s, **x} for e, s, x in specs]
+    m = AugmentedModel("foptd", _BASE, augs)
+    th = m.theta({k: v for k, v in _VALUES.items() if k in m.param_names})
+    u = _u()
+    x0 = m.initial_state(th, u[:1])
+    sim = m.simulate(u, 1.0, th, x0, return_states=True)
+    x, ys = x0.copy(), []
+    for k in range(u.shape[0]):
+        assert np.allclose(x, sim.states[:, k], atol=1e-9)
+        ys.append(m.output(x, u[k : k + 1], th))
+        x = m.step(x, u[k : k + 1], th, 1.0)
+    np.testing.assert_allclose(np.stack(ys, 1), sim.outputs, atol=1e-9)
+
+
+def test_neutral_augmentations_leave_the_base_model_unchanged():
+    augs = [{"effect": e, "signal": s, **x} for e, s, x in _SPECS]
+    m = AugmentedModel("foptd", _BASE, augs)
+    base = FOPTDModel(**_BASE)
+    th = m.theta({"y0_y": 20.0, "y0_y2": 21.0})
+    thb = base.theta({"y0_y": 20.0, "y0_y2": 21.0})
+    np.testing.assert_allclose(
+        m.simulate(_u(), 1.0, th).outputs, base.simulate(_u(), 1.0, thb).outputs, atol=1e-12
+    )
+
+
+def test_sensor_lag_is_the_rigs_first_order_lag_and_delay_the_foptd_dead_time():
+    base = {"inputs": ["u"], "outputs": ["y"], "K": 2.0, "T": 60.0}
+    u = 1.5 - _u()[:, :1]  # starts at rest (0): both conventions agree on the past input
+    y = FOPTDModel(**base).simulate(u, 1.0).outputs[0, :, 0]
+    lag = AugmentedModel("foptd", base, [{"effect": "sensor_lag", "signal": "y"}])
+    got = lag.simulate(u, 1.0, {"tau_lag_y": 25.0}).outputs[0, :, 0]
+    np.testing.assert_allclose(got, first_order_lag(y, 25.0, 1.0), atol=1e-12)
+    delayed = AugmentedModel("foptd", base, [{"effect": "transport_delay", "signal": "u"}])
+    got = delayed.simulate(u, 1.0, {"delay_u": 12.0}).outputs[0, :, 0]
+    truth = FOPTDModel(**base, tau=12.0).simulate(u, 1.0).outputs[0, :, 0]
+    np.testing.assert_allclose(got, truth, atol=1e-12)
+
+
+def test_saturating_heat_transfer_is_the_steady_state_of_a_growing_conductance():
+    # steady state of Q = g0 Δ (1 + γ Δ/ΔT_ref) with the linear rise Δ_lin = Q/g0
+    base = {"inputs": ["u"], "outputs": ["y"], "K": 10.0, "T": 5.0, "offsets": True}
+    m = AugmentedModel("foptd", base, [{"effect": "nonlinear_heat_transfer", "signal": "y"}])
+    y = m.simulate(np.ones((400, 1)), 1.0, {"gamma_y": 0.5, "y0_y": 20.0}).outputs[0, -1, 0]
+    d = y - 20.0
+    assert d * (1 + 0.5 * d / 10.0) == pytest.approx(10.0, rel=1e-9)
+
+
+def test_fitresult_rebuilds_the_augmented_model():
+    augs = [
+        {"effect": "sensor_offset", "signal": "T_nut"},
+        {"effect": "sensor_lag", "signal": "T_nut"},
+    ]
+    m = get_model("augmented", base="strut", base_config={}, augmentations=augs)
+    fit = FitResult.from_model(m, {"offset_T_nut": 0.7, "tau_lag_T_nut": 300.0})
+    again = FitResult.from_dict(fit.to_dict()).build_model()
+    u = np.column_stack([np.full(40, 20.0), np.full(40, 21.0)])
+    np.testing.assert_array_equal(
+        m.simulate(u, 140.9, fit.theta(m)).outputs,
+        again.simulate(u, 140.9, fit.theta(again)).outputs,
+    )
+
+
+def test_bad_augmentations_are_refused_by_name():
+    with pytest.raises(ConfigError, match="outputs of model 'foptd'"):
+        AugmentedModel("foptd", _BASE, [{"effect": "sensor_lag", "signal": "nope"}])
+    with pytest.raises(ConfigError, match="augmentations are"):
+        AugmentedModel("foptd", _BASE, [{"effect": "phase_change", "signal": "y"}])
+    with pytest.raises(ConfigError, match="appears twice"):
+        AugmentedModel(
+            "foptd",
+            _BASE,
+            [{"effect": "sensor_lag", "signal": "y"}, {"effect": "sensor_lag", "signal": "y"}],
+        )
+    m = AugmentedModel("foptd", _BASE, [{"effect": "transport_delay", "signal": "u", "history": 2}])
+    th = m.theta({"delay_u": 5.0})
+    x = m.initial_state(th, _u()[:1])
+    with pytest.raises(SimulationError, match="history"):
+        m.step(x, _u()[:1], th, 1.0)
+
+
+@pytest.mark.parametrize(
+    ("plant", "effect", "values", "u_on", "dt"),
+    [
+        ("spindle", "input_dependent_heat_transfer", {"beta_u": 1.5}, 8000.0, 120.0),
+        ("spindle", "input_nonlinearity", {"alpha_u": 1.6}, 8000.0, 120.0),
+        ("strut", "input_dependent_heat_transfer", {"beta_u": 2.0}, 30.0, 158.3),
+        ("spindle", "nonlinear_heat_transfer", {"gamma_nl": 0.8}, 8000.0, 120.0),
+        ("strut", "nonlinear_heat_transfer", {"gamma_nl": 1.5}, 30.0, 158.3),
+    ],
+)
+def test_switched_network_matches_the_plants_own_rk4(plant, effect, values, u_on, dt):
+    m = get_model(plant, effects=[effect])
+    T = 200
+    u = np.column_stack(
+        [
+            np.r_[0.0, np.full(T // 2, u_on), np.zeros(T - T // 2 - 1)],
+            24 + np.sin(np.arange(T) / 50),
+        ]
+    )
+    th = m.theta(values)
+    y_rk4 = m.simulate(u, dt, th).outputs[0]
+    y_fast = fast_or_none(m).simulate(u, dt, th).outputs[0]
+    assert np.abs(y_rk4 - y_fast).max() < 1e-3 * np.abs(y_rk4 - y_rk4[0]).max()
+
+
+def test_hidden_node_keeps_the_steady_state_and_slows_the_response():
+    # a mass attached without a path to the air stores heat but changes no steady state
+    plant = get_model("strut")
+    hidden = with_hidden_node(plant, "tube_rear", capacity=20000.0, conductance=2.0, g_air=0.0)
+    assert hidden.state_names[-1] == "hidden_mass" and len(hidden.state_names) == 19
+    u = np.column_stack([np.full(2000, 20.0), np.full(2000, 21.0)])
+    th = plant.theta()
+    ss = plant.steady_state(th, u[:1])[0]
+    y_h = hidden.simulate(u, 600.0, th).outputs[0]
+    y_p = plant.simulate(u, 600.0, th).outputs[0]
+    j = plant.output_names.index("T_tube_rear")
+    assert y_h[-1, j] == pytest.approx(ss[plant.state_names.index("tube_rear")], abs=1e-6)
+    assert y_h[12, j] < y_p[12, j] - 0.1  # two hours in, the mass still absorbs heat
+    with pytest.raises(ConfigError, match="nodes are"):
+        with_hidden_node(plant, "nowhere", capacity=1.0, conductance=1.0)
+
+
+def test_missing_dynamics_rig_leaves_no_trace_in_the_metadata(tmp_path):
+    recs = run_experiment("strut", "steps", tmp_path, seed=1, effects=["missing_dynamics"])
+    clean = get_rig("strut").run("steps", seed=1)
+    assert not np.allclose(recs[0]["T_bearing"], clean[0].columns["T_bearing"], atol=0.2)
+    text = " ".join(p.read_text() for p in tmp_path.iterdir() if p.suffix == ".json")
+    assert "hidden" not in text and "missing" not in text and "effect" not in text
+
+
+def test_sensor_lag_of_the_rig_starts_in_equilibrium():
+    y = first_order_lag(np.full(50, 25.0), 900.0, 140.9)
+    np.testing.assert_allclose(y, 25.0)
+
+
+def test_loss_network_needs_fewer_substeps_than_the_plants_bound():
+    # the plant bounds the stiffness for forced convection at the largest speed even when
+    # only the loss nonlinearity is on; LossNetwork bounds it by γ (and stays stable)
+    m = get_model("spindle", effects=["nonlinear_heat_transfer"])
+    th = m.theta({"gamma_nl": 0.0})
+    net = m.network(m._layout.full_theta(th))
+    fast = LossNetwork(m)
+    assert fast.substeps(th, 120.0) < m.rk4_substeps(net, 120.0, 8000.0)
+    assert fast.substeps(m.theta({"gamma_nl": 1.0}), 120.0) > fast.substeps(th, 120.0)
+    with pytest.raises(ConfigError, match="nonlinear_heat_transfer"):
+        LossNetwork(get_model("spindle", effects=["input_nonlinearity"]))

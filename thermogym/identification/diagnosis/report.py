@@ -1,0 +1,518 @@
+"""The diagnosis report: JSON for machines, Markdown and self-contained HTML for people.
+
+:class:`DiagnosisReport` is what :func:`~thermogym.identification.diagnosis.diagnose`
+returns. Its JSON (:meth:`DiagnosisReport.to_dict`) has at least::
+
+    {"format": "thermogym.diagnosis", "schema_version": 1,
+     "mismatch_detected": true,
+     "located": {"signals": [...], "windows": [...], "regimes": [...]},
+     "hypotheses": [{"rank": 1, "effect": ..., "target": ..., "explanation": ...,
+                     "params": {name: {"value", "stderr", "unit"}},
+                     "fit_before": {output: NRMSE, "mean": ...}, "fit_after": {...},
+                     "validation_before": {...}, "validation_after": {...},
+                     "score": ..., "delta_bic": ..., "explained": ...}, ...],
+     "best": {"effect": ..., ...},
+     "augmented_fit": {FitResult} | null,
+     "nominal_fit": {FitResult}, "detection": {...}, "detection_after": {...}}
+
+The HTML page embeds its figures as PNG data (one file to mail or archive);
+the figures are drawn by :mod:`.plots`, imported only when a page is written.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import thermogym
+from thermogym._fileio import atomic_write_text, to_jsonable
+from thermogym.errors import ConfigError
+from thermogym.fitresult import FitResult
+
+__all__ = ["DiagnosisReport"]
+
+FORMAT = "thermogym.diagnosis"
+SCHEMA_VERSION = 1
+
+
+def _public(d: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in d.items() if not k.startswith("_")}
+
+
+def _f(v: Any, digits: int = 4) -> str:
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return "–"
+        return f"{v:.{digits}g}"
+    return str(v)
+
+
+@dataclass
+class DiagnosisReport:
+    """Outcome of a diagnosis (see the module docstring for the JSON layout).
+
+    Attributes
+    ----------
+    model : str
+        Nominal model name.
+    model_config : dict
+    outputs : list of str
+        Compared outputs.
+    exogenous : list of str
+    units : dict
+    mismatch_detected : bool
+    alpha : float
+    detection : dict
+        Residual tests of the nominal model on training and validation data.
+    located : dict
+        Signals, windows, regimes.
+    nominal_fit : FitResult
+    fit_before : dict
+        NRMSE per output of the nominal model, training and validation.
+    hypotheses : list of dict
+        Ranked hypotheses.
+    best : dict
+        The winner (``effect`` is ``none`` or ``unexplained`` when there is none).
+    augmented_fit : FitResult or None
+    detection_after : dict
+        Residual tests of the winner.
+    scheme : str
+        ``split`` or ``crossfit``.
+    """
+
+    model: str
+    model_config: dict[str, Any]
+    outputs: list[str]
+    exogenous: list[str]
+    units: dict[str, str]
+    mismatch_detected: bool
+    alpha: float
+    detection: dict[str, Any]
+    located: dict[str, Any]
+    nominal_fit: FitResult
+    fit_before: dict[str, Any]
+    hypotheses: list[dict[str, Any]] = field(default_factory=list)
+    best: dict[str, Any] = field(default_factory=dict)
+    augmented_fit: FitResult | None = None
+    detection_after: dict[str, Any] = field(default_factory=dict)
+    scheme: str = ""
+    signatures: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+    # arrays kept for figures (not in the JSON)
+    series: list[dict[str, Any]] = field(default_factory=list, repr=False)
+    regime_values: list[Any] = field(default_factory=list, repr=False)
+    tests_before: dict[str, Any] = field(default_factory=dict, repr=False)
+    tests_after: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    # ------------------------------------------------------------------ JSON
+    @property
+    def verdict(self) -> str:
+        """One sentence: what was found."""
+        e = self.best.get("effect", "none")
+        if not self.mismatch_detected:
+            return "No significant mismatch: the model reproduces the recordings to within noise."
+        where = ", ".join(d["signal"] for d in self.located.get("signals", [])[:2])
+        if e == "unexplained":
+            return (
+                f"Significant mismatch (mostly {where}); no hypothesis explains it on held-out "
+                "data."
+            )
+        before = self.best.get("validation_before", {}).get("mean", math.nan)
+        after = self.best.get("validation_after", {}).get("mean", math.nan)
+        tgt = f" ({self.best.get('target')})" if self.best.get("target") else ""
+        return (
+            f"Significant mismatch (mostly {where}): missing physics '{e}'{tgt}; "
+            f"held-out mean NRMSE {before:.4f} → {after:.4f}."
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (NaN and infinities as null)."""
+        hyps = []
+        for i, h in enumerate(self.hypotheses):
+            hyps.append({"rank": i + 1, **_public(h)})
+        located = {k: v for k, v in self.located.items() if k != "all_regimes"}
+        best = _public(self.best)
+        doc = {
+            "format": FORMAT,
+            "schema_version": SCHEMA_VERSION,
+            "model": self.model,
+            "model_config": self.model_config,
+            "outputs": self.outputs,
+            "verdict": self.verdict,
+            "mismatch_detected": self.mismatch_detected,
+            "located": located,
+            "hypotheses": hyps,
+            "best": best,
+            "fit_before": self.fit_before,
+            "fit_after": {
+                "train": best.get("fit_after", {}),
+                "validation": best.get("validation_after", {}),
+            },
+            "scheme": self.scheme,
+            "detection": self.detection,
+            "detection_after": self.detection_after,
+            "augmented_fit": self.augmented_fit.to_dict() if self.augmented_fit else None,
+            "nominal_fit": self.nominal_fit.to_dict(),
+            "signatures": self.signatures,
+            "notes": self.notes,
+            "seconds": self.seconds,
+            "package_version": thermogym.__version__,
+        }
+        return to_jsonable(doc, "diagnosis report")
+
+    def to_json(self) -> str:
+        """The report as JSON text."""
+        return json.dumps(self.to_dict(), indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = True) -> Path:
+        """Write the JSON report atomically (an existing file survives a failure)."""
+        try:
+            return atomic_write_text(path, self.to_json(), overwrite=overwrite)
+        except FileExistsError as e:
+            raise ConfigError(f"not writing the report: {e}") from e
+
+    # ------------------------------------------------------------------ Markdown
+    def _fit_rows(self) -> list[list[str]]:
+        rows = []
+        b = self.best
+        for o in [*self.outputs, "mean"]:
+            rows.append(
+                [
+                    o,
+                    _f(self.fit_before["train"].get(o, math.nan)),
+                    _f(b.get("fit_after", {}).get(o, math.nan)),
+                    _f(b.get("validation_before", self.fit_before["validation"]).get(o, math.nan)),
+                    _f(b.get("validation_after", {}).get(o, math.nan)),
+                ]
+            )
+        return rows
+
+    def _hyp_rows(self) -> list[list[str]]:
+        rows = []
+        for i, h in enumerate(self.hypotheses):
+            params = ", ".join(
+                f"{k} = {_f(v['value'], 3)} {v['unit']}".strip()
+                for k, v in (h.get("params") or {}).items()
+                if not k.startswith(("dist_cos",))
+            )
+            rows.append(
+                [
+                    str(i + 1),
+                    h["effect"],
+                    h.get("target", ""),
+                    params if "error" not in h else h["error"][:60],
+                    _f(h.get("validation_before", {}).get("mean", math.nan)),
+                    _f(h.get("validation_after", {}).get("mean", math.nan)),
+                    f"{100 * h.get('explained', 0.0):.0f} %",
+                    _f(h.get("score", math.nan), 5),
+                ]
+            )
+        return rows
+
+    def _test_rows(self) -> list[list[str]]:
+        rows = []
+        for role in ("train", "validation"):
+            for o in self.outputs:
+                d0 = self.detection.get(role, {}).get(o)
+                d1 = self.detection_after.get(role, {}).get(o) if self.detection_after else None
+                if d0 is None:
+                    continue
+
+                def ind(d: dict[str, Any] | None) -> str:
+                    if not d:
+                        return "–"
+                    return min((v["p_value"] for v in d["independence"].values()), default=math.nan)
+
+                rows.append(
+                    [
+                        role,
+                        o,
+                        _f(d0["whiteness"]["p_value"], 2),
+                        _f(ind(d0), 2),
+                        _f(d0["rms"], 3),
+                        _f(d1["whiteness"]["p_value"], 2) if d1 else "–",
+                        _f(ind(d1), 2) if d1 else "–",
+                        _f(d1["rms"], 3) if d1 else "–",
+                        _f(d0["noise_sigma"], 3),
+                    ]
+                )
+        return rows
+
+    def to_markdown(self, figures: dict[str, str] | None = None) -> str:
+        """A readable report; ``figures`` maps captions to image paths or data URIs."""
+
+        def table(header: list[str], rows: list[list[str]]) -> str:
+            lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+            lines += ["| " + " | ".join(r) + " |" for r in rows]
+            return "\n".join(lines)
+
+        b = self.best
+        alpha_test = self.detection.get("alpha_per_test", math.nan)
+        mat = self.detection.get("materiality", {})
+        parts = [
+            f"# Mismatch diagnosis: model `{self.model}`",
+            "",
+            f"**{self.verdict}**",
+            "",
+        ]
+        if b.get("effect") not in (None, "none"):
+            parts += [f"## What is missing: `{b['effect']}`", "", b.get("explanation", ""), ""]
+            if b.get("evidence"):
+                parts += [f"*Residual signature:* {b['evidence']}.", ""]
+            if b.get("params"):
+                parts += [
+                    table(
+                        ["parameter", "value", "std. error", "unit", "meaning"],
+                        [
+                            [
+                                k,
+                                _f(v["value"], 4),
+                                _f(v["stderr"], 2),
+                                v["unit"],
+                                v.get("description", ""),
+                            ]
+                            for k, v in b["params"].items()
+                        ],
+                    ),
+                    "",
+                ]
+        parts += [
+            "## Fit before and after (NRMSE, 1 = perfect)",
+            "",
+            table(
+                ["output", "train before", "train after", "held-out before", "held-out after"],
+                self._fit_rows(),
+            ),
+            "",
+        ]
+        if self.scheme == "crossfit":
+            parts += [
+                "Held-out numbers are cross-fitted: each validation recording is predicted by "
+                "models fitted on the training recordings and the other validation recordings "
+                "(the training data alone hold no sign of the mismatch).",
+                "",
+            ]
+        sig = self.located.get("signals", [])
+        parts += [
+            "## Where",
+            "",
+            table(
+                ["output", "share of error", "RMS", "noise σ", "RMS / σ"],
+                [
+                    [
+                        d["signal"],
+                        f"{100 * d['share_of_error']:.1f} %",
+                        _f(d["rms"], 3),
+                        _f(d["noise_sigma"], 3),
+                        _f(d["rms_over_noise"], 3),
+                    ]
+                    for d in sig
+                ],
+            ),
+            "",
+        ]
+        regs = self.located.get("regimes", [])
+        if regs:
+            parts += [
+                table(
+                    ["regime", "output", "η²", "worst", "mean residual per bin"],
+                    [
+                        [
+                            r["variable"],
+                            r["signal"],
+                            f"{r['eta2']:.2f}",
+                            r["worst_bin"],
+                            "; ".join(f"{x['bin']}: {_f(x['mean'], 3)}" for x in r["bins"][:6]),
+                        ]
+                        for r in regs
+                    ],
+                ),
+                "",
+            ]
+        win = self.located.get("windows", [])
+        if win:
+            parts += [
+                table(
+                    ["recording", "output", "from [s]", "to [s]", "mean residual"],
+                    [
+                        [
+                            w["recording"],
+                            w["signal"],
+                            _f(w["t_start_s"], 6),
+                            _f(w["t_end_s"], 6),
+                            _f(w["mean_residual"], 3),
+                        ]
+                        for w in win
+                    ],
+                ),
+                "",
+            ]
+        if self.hypotheses:
+            parts += [
+                "## Hypotheses (ranked on held-out data)",
+                "",
+                table(
+                    [
+                        "#",
+                        "effect",
+                        "target",
+                        "fitted extra parameters",
+                        "held-out before",
+                        "held-out after",
+                        "explained",
+                        "score (−ΔBIC)",
+                    ],
+                    self._hyp_rows(),
+                ),
+                "",
+            ]
+        parts += [
+            "## Residual tests (Ljung-Box whiteness, input independence; p-values)",
+            "",
+            table(
+                [
+                    "data",
+                    "output",
+                    "white p before",
+                    "indep. p before",
+                    "RMS before",
+                    "white p after",
+                    "indep. p after",
+                    "RMS after",
+                    "noise σ",
+                ],
+                self._test_rows(),
+            ),
+            "",
+            f"Significance level per test: {_f(alpha_test, 3)} (α = {self.alpha:g}, Bonferroni); "
+            f"a mismatch must also be material (systematic RMS ≥ {mat.get('min_snr', '?')} σ and "
+            f"≥ {100 * mat.get('min_rel', 0):.1f} % of the spread).",
+            "",
+        ]
+        if figures:
+            parts += ["## Figures", ""]
+            for cap, src in figures.items():
+                parts += [f"![{cap}]({src})", "", f"*{cap}*", ""]
+        if self.notes:
+            parts += ["## Notes", "", *[f"* {n}" for n in self.notes], ""]
+        parts += [f"*thermogym {thermogym.__version__}, {self.seconds:.1f} s*", ""]
+        return "\n".join(parts)
+
+    # ------------------------------------------------------------------ HTML
+    def figures(self) -> dict[str, bytes]:
+        """The report's figures as PNG bytes, by caption (draws with matplotlib)."""
+        from thermogym.identification.diagnosis import plots
+
+        return plots.report_figures(self)
+
+    def to_html(self) -> str:
+        """A self-contained HTML page (figures embedded as PNG data)."""
+        figs = self.figures()
+        uris = {
+            cap: "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+            for cap, png in figs.items()
+        }
+        md = self.to_markdown()
+        body = _markdown_to_html(md)
+        imgs = "".join(
+            f'<figure><img src="{src}" alt="{html.escape(cap)}"><figcaption>{html.escape(cap)}'
+            "</figcaption></figure>"
+            for cap, src in uris.items()
+        )
+        style = (
+            "body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;"
+            "color:#222}table{border-collapse:collapse;margin:1em 0;font-size:0.9em}"
+            "td,th{border:1px solid #ccc;padding:3px 8px}th{background:#f3f3f3}"
+            "img{max-width:100%}figure{margin:1.5em 0}figcaption{color:#555;font-style:italic}"
+            "code{background:#f4f4f4;padding:0 3px}"
+        )
+        return (
+            "<!DOCTYPE html><html><head><meta charset='utf-8'>"
+            f"<title>thermogym diagnosis: {html.escape(self.model)}</title><style>{style}</style>"
+            f"</head><body>{body}<h2>Figures</h2>{imgs}</body></html>\n"
+        )
+
+    def save_html(self, path: str | os.PathLike[str], *, overwrite: bool = True) -> Path:
+        """Write the HTML page atomically."""
+        try:
+            return atomic_write_text(path, self.to_html(), overwrite=overwrite)
+        except FileExistsError as e:
+            raise ConfigError(f"not writing the HTML report: {e}") from e
+
+    def save_markdown(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        overwrite: bool = True,
+        figures_dir: str | None = None,
+    ) -> Path:
+        """Write the Markdown report; figures go next to it as PNG files when asked."""
+        from thermogym._fileio import atomic_write
+
+        p = Path(path)
+        figs: dict[str, str] = {}
+        if figures_dir is not None:
+            folder = p.parent / figures_dir
+            folder.mkdir(parents=True, exist_ok=True)
+            for i, (cap, png) in enumerate(self.figures().items()):
+                f = folder / f"figure{i + 1}.png"
+                atomic_write(f, lambda tmp, data=png: tmp.write_bytes(data))
+                figs[cap] = f"{figures_dir}/{f.name}"
+        try:
+            return atomic_write_text(p, self.to_markdown(figs), overwrite=overwrite)
+        except FileExistsError as e:
+            raise ConfigError(f"not writing the Markdown report: {e}") from e
+
+
+def _markdown_to_html(md: str) -> str:
+    """The small Markdown subset of :meth:`DiagnosisReport.to_markdown` as HTML."""
+    out: list[str] = []
+    lines = md.splitlines()
+    i = 0
+
+    def inline(s: str) -> str:
+        s = html.escape(s)
+        import re
+
+        s = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", s)
+        s = re.sub(r"`(.+?)`", r"<code>\1</code>", s)
+        s = re.sub(r"\*(.+?)\*", r"<i>\1</i>", s)
+        return s
+
+    while i < len(lines):
+        line = lines[i]
+        if line.startswith("|"):
+            rows = []
+            while i < len(lines) and lines[i].startswith("|"):
+                rows.append([c.strip() for c in lines[i].strip("|").split("|")])
+                i += 1
+            head, body = rows[0], [r for r in rows[1:] if not set("".join(r)) <= set("-")]
+            out.append(
+                "<table><tr>"
+                + "".join(f"<th>{inline(c)}</th>" for c in head)
+                + "</tr>"
+                + "".join(
+                    "<tr>" + "".join(f"<td>{inline(c)}</td>" for c in r) + "</tr>" for r in body
+                )
+                + "</table>"
+            )
+            continue
+        if line.startswith("# "):
+            out.append(f"<h1>{inline(line[2:])}</h1>")
+        elif line.startswith("## "):
+            out.append(f"<h2>{inline(line[3:])}</h2>")
+        elif line.startswith("* "):
+            out.append(f"<ul><li>{inline(line[2:])}</li></ul>")
+        elif line.startswith("!["):
+            pass
+        elif line.strip():
+            out.append(f"<p>{inline(line)}</p>")
+        i += 1
+    return "\n".join(out)
