@@ -13,7 +13,7 @@ OUT    ?= out
 .PHONY: help install install-all test test-all firmware-test demo lint format bench clean
 
 help:
-	@echo "make demo      run the main job (thermogym demo) into $(OUT)/"
+	@echo "make demo      run the main job (thermogym demo) into $(OUT)/report.html"
 	@echo "make test      run the default test suite (installs into .venv on first use)"
 	@echo "make test-all  run every test, slow ones and optional tools included"
 	@echo "make lint      ruff check + format check"
@@ -34,13 +34,18 @@ $(STAMP): pyproject.toml | $(VENV)/bin/python
 
 install: $(STAMP)
 
-# Optional system tools for the optional tests: GNU Octave (external .m models). Installed
+# Optional system tools for the optional tests: GNU Octave (external .m models), Chromium and
+# chromedriver (the demo report rendered in a headless browser). Installed
 # with apt-get where we may (root); otherwise those tests skip with their reason.
 $(STAMP_ALL): $(STAMP)
 	$(PIP) install -e ".[$(EXTRAS),all]"
 	@command -v octave >/dev/null || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
 		&& apt-get install -y --no-install-recommends octave >/dev/null \
 		|| echo "octave not installed: its tests will skip"; }
+	@{ command -v chromium >/dev/null && command -v chromedriver >/dev/null; } \
+		|| { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
+		&& apt-get install -y --no-install-recommends chromium chromium-driver >/dev/null; } \
+		|| echo "chromium not installed: the report's browser test will skip"
 	touch $@
 
 install-all: $(STAMP_ALL)
@@ -56,8 +61,9 @@ test-all: $(STAMP_ALL)
 firmware-test:
 	$(MAKE) -C firmware test
 
+# The main job: the whole loop on embedded defaults -> $(OUT)/report.html and report.md.
 demo: $(STAMP)
-	$(VENV)/bin/thermogym demo --out $(OUT)
+	$(VENV)/bin/thermogym demo --out $(OUT) $(DEMO_ARGS)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check thermogym tests benchmarks

@@ -1,0 +1,142 @@
+r"""``thermogym bench``: benchmark controllers on energy, lifetime and accuracy.
+
+Example::
+
+    thermogym bench --env AXT211Valve --scenario setpoint-steps \\
+        --controllers onoff,pwm,pid,mpc --seeds 3 --plant model,rig --out out/bench-valve
+
+Runs every controller × scenario × seed (× plant) with
+:func:`thermogym.controllers.harness.run_benchmark` and writes the tidy table
+(CSV, Parquet), ``summary.md`` and the figures into ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from thermogym.errors import ConfigError
+
+#: Scenario run when none is named.
+DEFAULT_SCENARIO = {"AXT211Room": "winter-week", "AXT211Valve": "setpoint-steps"}
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """Arguments of ``thermogym bench``."""
+    p.add_argument("--env", help="environment ID or name (thermogym/AXT211Room-v0, AXT211Room)")
+    p.add_argument(
+        "--scenario",
+        action="append",
+        help="scenario name or name@version (repeat or comma-separate; default: the "
+        "environment's main one)",
+    )
+    p.add_argument(
+        "--controllers",
+        default="onoff,pwm,pid,mpc",
+        help="comma list of presets and groups (default: onoff,pwm,pid,mpc; see --list)",
+    )
+    p.add_argument("--seeds", type=int, default=3, help="number of seeds, 0..N-1 (default 3)")
+    p.add_argument("--seed-list", help="explicit comma list of seeds (overrides --seeds)")
+    p.add_argument("--out", help="output folder of the report")
+    p.add_argument("--backend", choices=["local", "ray", "serial"], default="local")
+    p.add_argument("--workers", type=int, help="parallel episodes (default: CPU count)")
+    p.add_argument(
+        "--plant",
+        default="model",
+        help="model, rig or model,rig (both: the sim-to-real gap; default model)",
+    )
+    p.add_argument(
+        "--policy",
+        action="append",
+        default=[],
+        metavar="ALGO=PATH",
+        help="policy of an RL preset, e.g. ppo=out/rl/policy.zip (repeatable)",
+    )
+    p.add_argument("--record", choices=["first", "all", "none"], default="first")
+    p.add_argument("--title", help="title of summary.md")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--list", action="store_true", help="list presets and scenarios, then exit")
+
+
+def _env_id(name: str) -> str:
+    import thermogym.envs as envs
+
+    if name in envs.ENV_IDS:
+        return name
+    for i in envs.ENV_IDS:
+        if i.split("/")[1].split("-v")[0].lower() == name.lower():
+            return i
+    raise ConfigError(f"unknown environment {name!r}; environments are {list(envs.ENV_IDS)}")
+
+
+def _list() -> int:
+    import thermogym.envs as envs
+    from thermogym.controllers.presets import CONTROLLER_GROUPS, CONTROLLER_NAMES
+    from thermogym.controllers.scenarios import SCENARIOS, scenarios_for
+
+    print("controller presets:", ", ".join(CONTROLLER_NAMES))
+    print("groups:", ", ".join(f"{k} = {'+'.join(v)}" for k, v in CONTROLLER_GROUPS.items()))
+    print("scenarios:")
+    for key, s in SCENARIOS.items():
+        if "@" in key:
+            print(f"  {key:22s} {s.description} ({', '.join(sorted(s.env_kwargs))})")
+    for i in envs.ENV_IDS:
+        n = i.split("/")[1].split("-v")[0]
+        print(f"{i}: scenarios {', '.join(scenarios_for(n))}")
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the benchmark grid and write its report."""
+    if args.list:
+        return _list()
+    if not args.env:
+        raise ConfigError("--env is required (or --list)")
+    if not args.out:
+        raise ConfigError("--out is required: the folder of the report")
+    from thermogym.controllers.harness import run_benchmark
+
+    env_id = _env_id(args.env)
+    name = env_id.split("/")[1].split("-v")[0]
+    scenarios: list[str] = []
+    for s in args.scenario or [DEFAULT_SCENARIO.get(name, "default")]:
+        scenarios += [x.strip() for x in s.split(",") if x.strip()]
+    seeds: Any = args.seeds
+    if args.seed_list:
+        try:
+            seeds = [int(x) for x in args.seed_list.split(",") if x.strip()]
+        except ValueError:
+            raise ConfigError(f"--seed-list {args.seed_list!r}: expected integers") from None
+    options: dict[str, dict[str, Any]] = {}
+    for item in args.policy:
+        algo, sep, path = item.partition("=")
+        if not sep or not path:
+            raise ConfigError(f"--policy {item!r}: expected ALGO=PATH (e.g. ppo=policy.zip)")
+        options[algo.strip()] = {"policy": path.strip()}
+    plants = [p.strip() for p in args.plant.split(",") if p.strip()]
+    res = run_benchmark(
+        env_id,
+        scenarios,
+        args.controllers,
+        seeds,
+        args.out,
+        args.backend,
+        plants=plants,
+        workers=args.workers,
+        options=options,
+        record=args.record,
+        progress=False if args.no_progress else None,
+        title=args.title,
+    )
+    from thermogym.controllers.report import kpi_axes
+
+    axes = list(kpi_axes(list(res.table.columns)).values())
+    mean = res.table.groupby(["scenario", "plant", "controller"], sort=False)[axes].mean()
+    print(mean.to_string(float_format=lambda v: f"{v:.4g}"))
+    print(
+        f"{len(res.table)} episodes in {res.seconds:.1f} s ({res.backend}, {res.workers} workers); "
+        f"report: {res.files.get('summary.md')}",
+        file=sys.stderr,
+    )
+    return 0

@@ -1,0 +1,297 @@
+"""Benchmark reports: tidy tables (CSV, Parquet), a Markdown summary, figures.
+
+:func:`write_report` writes, into a folder:
+
+``results.csv`` / ``results.parquet``
+    The tidy table, one row per episode (:func:`~.harness.run_episode`).
+``summary.md``
+    Per scenario and plant: mean ± standard deviation (over seeds) of every
+    KPI per controller, the sim-to-real gap when both plants ran, the
+    Pareto-optimal controllers on energy, lifetime and accuracy, and the
+    figures.
+``trajectories.parquet``
+    The recorded episodes (block means), long format.
+``figures/``
+    Trajectories of the representative episodes, KPI bars and the
+    energy-lifetime-accuracy Pareto view (:mod:`thermogym.controllers.plots`).
+
+Files are written atomically (:mod:`thermogym._fileio`): a failed report
+never leaves a half-written file in place of a good one.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from thermogym import __version__
+from thermogym._fileio import atomic_write, atomic_write_text
+
+__all__ = [
+    "AXES",
+    "format_mean_std",
+    "kpi_axes",
+    "pareto_front",
+    "summary_markdown",
+    "write_report",
+]
+
+#: KPIs of the energy / lifetime / accuracy axes, in order of preference.
+AXES: dict[str, tuple[str, ...]] = {
+    "energy": ("heat_delivered_kWh", "actuator_energy_Wh"),
+    "lifetime": ("wax_thermal_cycles", "switch_cycles", "stroke_travel_mm"),
+    "accuracy": (
+        "discomfort_Kh",
+        "stroke_rmse_mm",
+        "temperature_rmse_K",
+        "bearing_over_limit_Kh",
+        "elongation_error_um",
+    ),
+}
+#: KPIs shown in the summary tables and bars (those present), in this order.
+MAIN_KPIS = (
+    "discomfort_Kh",
+    "stroke_rmse_mm",
+    "stroke_iae_mm_s",
+    "temperature_rmse_K",
+    "heat_delivered_kWh",
+    "actuator_energy_Wh",
+    "switch_cycles",
+    "wax_thermal_cycles",
+    "wax_damage",
+    "stroke_travel_mm",
+    "stroke_reversals",
+    "time_above_limit_h",
+)
+
+
+def kpi_axes(columns: Sequence[str]) -> dict[str, str]:
+    """The KPI used for each of energy, lifetime and accuracy among ``columns``.
+
+    Examples
+    --------
+    >>> kpi_axes(["actuator_energy_Wh", "switch_cycles", "wax_thermal_cycles", "stroke_rmse_mm"])
+    {'energy': 'actuator_energy_Wh', 'lifetime': 'wax_thermal_cycles', 'accuracy': 'stroke_rmse_mm'}
+    """
+    out = {}
+    for axis, names in AXES.items():
+        for n in names:
+            if n in columns:
+                out[axis] = n
+                break
+    return out
+
+
+def pareto_front(points: np.ndarray) -> np.ndarray:
+    """Mask of the non-dominated rows of ``points`` (every column minimised).
+
+    Examples
+    --------
+    >>> pareto_front(np.array([[1.0, 2.0], [2.0, 1.0], [2.0, 2.0]])).tolist()
+    [True, True, False]
+    """
+    p = np.asarray(points, dtype=float)
+    keep = np.ones(len(p), dtype=bool)
+    for i in range(len(p)):
+        others = np.delete(p, i, axis=0)
+        dominated = np.any(np.all(others <= p[i], axis=1) & np.any(others < p[i], axis=1))
+        keep[i] = not dominated
+    return keep
+
+
+def format_mean_std(mean: float, std: float, n: int) -> str:
+    """``mean ± std`` with 3-4 significant digits (``std`` omitted for one seed).
+
+    Examples
+    --------
+    >>> format_mean_std(12.345, 0.678, 3)
+    '12.35 ± 0.678'
+    >>> format_mean_std(5.0, float("nan"), 1)
+    '5'
+    """
+
+    def f(v: float) -> str:
+        if not math.isfinite(v):
+            return "–"
+        return f"{v:.4g}"
+
+    if n <= 1 or not math.isfinite(std):
+        return f(mean)
+    return f"{f(mean)} ± {std:.3g}"
+
+
+def _md_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def summary_markdown(
+    table: Any, *, title: str | None = None, figures: dict[str, list[str]] | None = None
+) -> str:
+    """The Markdown summary of a benchmark table (see the module docstring)."""
+    from thermogym.controllers.harness import sim_to_real_gap
+
+    t = table
+    env_ids = sorted(set(t["env_id"]))
+    lines = [f"# {title or 'Controller benchmark: ' + ', '.join(env_ids)}", ""]
+    seeds = sorted(set(t["seed"]))
+    lines += [
+        f"thermogym {__version__}; environment {', '.join(env_ids)}; "
+        f"{len(t)} episodes; seeds {seeds[0]}..{seeds[-1]} ({len(seeds)}); "
+        f"controllers {', '.join(dict.fromkeys(t['controller']))}.",
+        "",
+        "Values are mean ± standard deviation over the seeds (sample standard deviation). "
+        "Energy, lifetime and accuracy axes: "
+        + ", ".join(f"{k} = `{v}`" for k, v in kpi_axes(list(t.columns)).items())
+        + ". Lower is better for every KPI shown.",
+        "",
+    ]
+    kpis = [k for k in MAIN_KPIS if k in t.columns]
+    axes = kpi_axes(list(t.columns))
+    for (scen, plant), grp in t.groupby(["scenario", "plant"], sort=False):
+        ver = int(grp["scenario_version"].iloc[0])
+        lines += [f"## {scen}@{ver} on the {'virtual rig' if plant == 'rig' else 'model'}", ""]
+        g = grp.groupby("controller", sort=False)
+        mean, std, cnt = g[kpis].mean(), g[kpis].std(), g[kpis].count()
+        rows = []
+        for c in mean.index:
+            rows.append(
+                [f"`{c}`"]
+                + [format_mean_std(mean.at[c, k], std.at[c, k], int(cnt.at[c, k])) for k in kpis]
+            )
+        lines += [_md_table(["controller", *[f"`{k}`" for k in kpis]], rows), ""]
+        trips = grp[grp["terminated"]]
+        if len(trips):
+            lines += [
+                f"Safety trips: {len(trips)} episode(s): "
+                + "; ".join(f"{r.controller} seed {r.seed}: {r.trip}" for r in trips.itertuples()),
+                "",
+            ]
+        if len(axes) == 3:
+            pts = mean[[axes["energy"], axes["lifetime"], axes["accuracy"]]].to_numpy()
+            front = pareto_front(pts)
+            names = [f"`{c}`" for c, f in zip(mean.index, front, strict=True) if f]
+            lines += [
+                "Pareto-optimal (no other controller is at least as good on all of "
+                f"{axes['energy']}, {axes['lifetime']}, {axes['accuracy']} and better on one): "
+                + ", ".join(names)
+                + ".",
+                "",
+            ]
+        for rel in (figures or {}).get(f"{scen}|{plant}", []):
+            lines += [f"![{Path(rel).stem}]({rel})", ""]
+    gap = sim_to_real_gap(t, [k for k in kpis if k in t.columns])
+    if len(gap):
+        lines += [
+            "## Sim-to-real gap",
+            "",
+            "Tuned or trained on the identified model, evaluated on the identified model and on "
+            "the virtual rig (its own parameters, sensors and an actuator specimen): "
+            "`rig − model` of the mean KPI.",
+            "",
+        ]
+        show = [k for k in (axes.get("accuracy"), axes.get("energy"), axes.get("lifetime")) if k]
+        header = ["scenario", "controller"]
+        for k in show:
+            header += [f"`{k}` model", "rig", "gap"]
+        rows = []
+        for (scen, ctrl), r in gap.iterrows():
+            row = [str(scen), f"`{ctrl}`"]
+            for k in show:
+                row += [f"{r[f'{k}_model']:.4g}", f"{r[f'{k}_rig']:.4g}", f"{r[f'{k}_gap']:+.3g}"]
+            rows.append(row)
+        lines += [_md_table(header, rows), ""]
+        for rel in (figures or {}).get("gap", []):
+            lines += [f"![{Path(rel).stem}]({rel})", ""]
+    lines += [
+        "## Reproducing",
+        "",
+        "Every row of `results.csv` records the package version, the environment ID and "
+        "version, the scenario key, the controller settings (JSON), the fingerprints of the "
+        "FitResults the controller was tuned on (`controller_fits`) and of the plant "
+        "(`env_fit_fingerprint`), the plant and the seed.",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _write_table(table: Any, path_csv: Path, path_parquet: Path) -> None:
+    atomic_write_text(path_csv, table.to_csv(index=False))
+    atomic_write(path_parquet, lambda tmp: table.to_parquet(tmp, index=False))
+
+
+def _trajectories_frame(res: Any) -> Any:
+    import pandas as pd
+
+    frames = []
+    for (scen, ctrl, plant, seed), tr in res.trajectories.items():
+        df = pd.DataFrame(tr)
+        df.insert(0, "seed", seed)
+        df.insert(0, "plant", plant)
+        df.insert(0, "controller", ctrl)
+        df.insert(0, "scenario", scen)
+        frames.append(df)
+    return pd.concat(frames, ignore_index=True) if frames else None
+
+
+def write_report(
+    res: Any, out: str | os.PathLike[str], *, title: str | None = None, figures: bool = True
+) -> dict[str, Path]:
+    """Write the tables, trajectories, figures and Markdown summary of a benchmark.
+
+    Parameters
+    ----------
+    res : BenchmarkResult
+    out : path
+        Folder (created).
+    title : str, optional
+        Title of ``summary.md``.
+    figures : bool
+        Draw the figures (matplotlib).
+
+    Returns
+    -------
+    dict
+        ``name → path`` of what was written.
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    files: dict[str, Path] = {}
+    t = res.table
+    _write_table(t, out / "results.csv", out / "results.parquet")
+    files["results.csv"] = out / "results.csv"
+    files["results.parquet"] = out / "results.parquet"
+    tf = _trajectories_frame(res)
+    if tf is not None:
+        atomic_write(out / "trajectories.parquet", lambda tmp: tf.to_parquet(tmp, index=False))
+        files["trajectories.parquet"] = out / "trajectories.parquet"
+    figs: dict[str, list[str]] = {}
+    if figures:
+        from thermogym.controllers import plots
+
+        made = plots.benchmark_figures(res, out / "figures")
+        for key, paths in made.items():
+            figs[key] = [str(p.relative_to(out)) for p in paths]
+            for p in paths:
+                files[str(p.relative_to(out))] = p
+    md = summary_markdown(t, title=title, figures=figs)
+    atomic_write_text(out / "summary.md", md)
+    files["summary.md"] = out / "summary.md"
+    meta = {
+        "package_version": __version__,
+        "backend": res.backend,
+        "workers": res.workers,
+        "seconds": res.seconds,
+        "episodes": len(t),
+        "files": sorted(files),
+    }
+    atomic_write_text(out / "run.json", json.dumps(meta, indent=1) + "\n")
+    files["run.json"] = out / "run.json"
+    return files
