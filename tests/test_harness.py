@@ -130,6 +130,22 @@ def test_local_processes_give_the_serial_results():
     pd.testing.assert_frame_equal(_stable(local.table), _stable(ref.table))
 
 
+def test_a_users_own_scenario_reaches_the_worker_processes():
+    from thermogym.controllers.scenarios import Scenario
+
+    mine = Scenario(
+        "my-hold", 1, "hold 3 mm for 2 h",
+        {"AXT211Valve": {"setpoint": 3.0, "episode_s": 7200.0}},
+    )  # fmt: skip
+    kw = {**GRID, "seeds": [0]}
+    ref = run_benchmark(VALVE, mine, "pid", backend="serial", **kw)
+    local = run_benchmark(VALVE, [mine], "pid", backend="local", workers=2, **kw)
+    pd.testing.assert_frame_equal(_stable(local.table), _stable(ref.table))
+    assert set(ref.table["scenario"]) == {"my-hold"}
+    # the user's episode length, not a registered scenario's
+    assert ref.table["steps"].iloc[0] == 7200 // 10
+
+
 @pytest.mark.slow
 def test_ray_gives_the_serial_results():
     ray = pytest.importorskip("ray")
@@ -207,6 +223,26 @@ def test_cli_bench(tmp_path, capsys):
     assert rc == 0
     assert (out / "summary.md").exists() and (out / "results.csv").exists()
     assert "stroke_rmse_mm" in capsys.readouterr().out
+    # --params: the model episodes run on the user's FitResult (a slower cartridge), the rig's not
+    from thermogym.fitresult import FitResult
+    from thermogym.models.axt211 import AXT211
+
+    fit = FitResult.from_model(AXT211(), {"C_P": 36.0}, method="test")
+    fit.save(tmp_path / "fit.json")
+    out2 = tmp_path / "cli2"
+    rc = cli_main(
+        ["bench", "--env", "AXT211Valve", "--controllers", "onoff", "--seeds", "1", "--plant",
+         "model,rig", "--backend", "serial", "--out", str(out2), "--record", "none",
+         "--no-progress", "--params", str(tmp_path / "fit.json")]
+    )  # fmt: skip
+    assert rc == 0
+    a = pd.read_csv(out / "results.csv").set_index(["controller", "plant"])
+    b = pd.read_csv(out2 / "results.csv").set_index(["controller", "plant"])
+    assert b.loc[("onoff", "model"), "env_fit_fingerprint"] == fit.fingerprint()
+    assert b.loc[("onoff", "rig"), "env_fit_fingerprint"] != fit.fingerprint()
+    # twice the heat capacity: the same on/off rule tracks differently
+    key = ("onoff", "model")
+    assert b.loc[key, "stroke_rmse_mm"] != a.loc[key, "stroke_rmse_mm"]
     rc = cli_main(["bench", "--env", "AXT211Valve", "--controllers", "fuzzy", "--out", str(out)])
     assert rc == 2 and "fuzzy" in capsys.readouterr().err
     rc = cli_main(["bench", "--env", "Nope", "--out", str(out)])

@@ -53,6 +53,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="ALGO=PATH",
         help="policy of an RL preset, e.g. ppo=out/rl/policy.zip (repeatable)",
     )
+    p.add_argument(
+        "--params",
+        metavar="FIT.json",
+        help="FitResult of the identified model for the episodes on the model (rig episodes "
+        "are unaffected)",
+    )
     p.add_argument("--record", choices=["first", "all", "none"], default="first")
     p.add_argument("--title", help="title of summary.md")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -128,6 +134,7 @@ def run(args: argparse.Namespace) -> int:
         record=args.record,
         progress=False if args.no_progress else None,
         title=args.title,
+        params=args.params,
     )
     from thermogym.controllers.report import kpi_axes
 

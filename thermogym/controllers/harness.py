@@ -99,6 +99,12 @@ class EpisodeSpec:
         Position in the grid.
     points : int
         Largest number of trajectory samples kept (block means beyond).
+    scenario_def : Scenario, optional
+        The scenario itself when it is not a registered one (a user's own
+        :class:`Scenario` travels with the episode to the worker processes).
+    params : str, optional
+        FitResult file of the identified model for the episodes on the model
+        (``gymnasium.make(..., params=...)``); rig episodes ignore it.
     """
 
     env_id: str
@@ -110,6 +116,16 @@ class EpisodeSpec:
     record: bool = False
     index: int = 0
     points: int = 12000
+    scenario_def: Scenario | None = None
+    params: str | None = None
+
+    def env_kwargs(self, env_name: str) -> dict[str, Any]:
+        """Keyword arguments of ``gymnasium.make`` for this episode."""
+        scen = get_scenario(self.scenario_def or self.scenario)
+        kw = scen.kwargs(env_name, self.seed, self.plant)
+        if self.params is not None and scen.plant_for(self.plant) == "model":
+            kw["params"] = self.params
+        return kw
 
 
 def _env_name(env_id: str) -> str:
@@ -171,9 +187,8 @@ def run_episode(spec: EpisodeSpec) -> dict[str, Any]:
         torch.set_num_threads(1)
     except ImportError:
         pass
-    scen = get_scenario(spec.scenario)
-    name = _env_name(spec.env_id)
-    kw = scen.kwargs(name, spec.seed, spec.plant)
+    scen = get_scenario(spec.scenario_def or spec.scenario)
+    kw = spec.env_kwargs(_env_name(spec.env_id))
     t0 = time.perf_counter()
     env = gym.make(spec.env_id, record=spec.record, **kw)
     ctrl = build_controller(spec.controller, env, env_kwargs=kw, options=spec.options)
@@ -282,6 +297,7 @@ def _specs(
     options: Mapping[str, Mapping[str, Any]],
     record: str,
     points: int,
+    params: str | None = None,
 ) -> list[EpisodeSpec]:
     name = _env_name(env_id)
     out: list[EpisodeSpec] = []
@@ -313,6 +329,8 @@ def _specs(
                             rec,
                             len(out),
                             int(points),
+                            scen if isinstance(s, Scenario) else None,
+                            params,
                         )
                     )
     return out
@@ -381,6 +399,7 @@ def run_benchmark(
     ray_options: Mapping[str, Any] | None = None,
     report: bool = True,
     title: str | None = None,
+    params: str | os.PathLike[str] | None = None,
 ) -> BenchmarkResult:
     """Run a controller benchmark grid and (optionally) write its report.
 
@@ -416,6 +435,10 @@ def run_benchmark(
         Write the report when ``out`` is given.
     title : str, optional
         Title of the Markdown report.
+    params : path, optional
+        FitResult of the identified model: episodes on the model run with
+        ``params=`` (the environment is built from it; its fingerprint is in
+        the table's ``env_fit_fingerprint``); rig episodes are unaffected.
 
     Returns
     -------
@@ -470,6 +493,7 @@ def run_benchmark(
         options or {},
         record,
         trajectory_points,
+        None if params is None else os.fspath(params),
     )
     _check_buildable(env_id, specs)
     n_cpu = os.cpu_count() or 1
@@ -514,7 +538,7 @@ def _check_buildable(env_id: str, specs: list[EpisodeSpec]) -> None:
         if key in seen:
             continue
         seen.add(key)
-        kw = get_scenario(s.scenario).kwargs(_env_name(env_id), s.seed, s.plant)
+        kw = s.env_kwargs(_env_name(env_id))
         env = gym.make(env_id, **kw)
         build_controller(s.controller, env, env_kwargs=kw, options=s.options)
         env.close()

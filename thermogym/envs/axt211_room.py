@@ -191,7 +191,11 @@ class RoomConfig:
     reward_weights: Mapping[str, float] | None = None
     """Overrides of :data:`DEFAULT_WEIGHTS`."""
     wax_limit_C: float = 85.0
-    """Wax temperature above which time counts in ``time_above_limit_h`` [°C]."""
+    """Wax temperature above which time counts in ``time_above_limit_h`` [°C].
+
+    The default lies below the wax temperature of a fully powered AXT211 at 24 V
+    (about 87 °C), so the KPI counts the time the valve is held fully open
+    (thermal ageing of the wax), not overheating; the safety trip is separate."""
     trip_C: float = 110.0
     """Wax temperature of the safety trip [°C]."""
     frost_C: float = 5.0
