@@ -8,6 +8,7 @@ installs them: Debian packages ``chromium`` and ``chromium-driver``).
 
 from __future__ import annotations
 
+import importlib.util
 import re
 import shutil
 import tempfile
@@ -25,6 +26,10 @@ pytestmark = [
     pytest.mark.skipif(CHROMIUM is None, reason="Chromium is not installed (apt: chromium)"),
     pytest.mark.skipif(
         DRIVER is None, reason="chromedriver is not installed (apt: chromium-driver)"
+    ),
+    pytest.mark.skipif(
+        importlib.util.find_spec("selenium") is None,
+        reason="selenium is not installed (pip extra 'browser', installed by make test-all)",
     ),
 ]
 
