@@ -215,6 +215,35 @@ def test_vector_env_equals_n_single_envs(env_id):
             done[i] = te or tr
 
 
+@pytest.mark.parametrize(
+    ("env_id", "module"),
+    [
+        ("thermogym/AXT211Valve-v0", "thermogym.envs.axt211_valve"),
+        ("thermogym/AXT211Room-v0", "thermogym.envs.axt211_room"),
+    ],
+)
+def test_lockstep_blocks_equal_the_scalar_kernel_of_single_envs(env_id, module):
+    # a full block of plants stepped in lockstep plus a partial block by the scalar kernel,
+    # against single environments (scalar kernel only): bit-identical
+    import importlib
+
+    n = importlib.import_module(module)._BW + 2
+    kw = dict(SHORT[env_id])
+    venv = gym.make_vec(env_id, n, vectorization_mode="vector_entry_point", **kw)
+    singles = [gym.make(env_id, **kw) for _ in range(n)]
+    venv.reset(seed=11)
+    for i, e in enumerate(singles):
+        e.reset(seed=11 + i)
+    rng = np.random.default_rng(1)
+    for _ in range(6):
+        acts = rng.uniform(-1, 1, (n, 1)).astype(np.float32)  # duty: on and off parts
+        vo, vr, _, _, _ = venv.step(acts)
+        for i, e in enumerate(singles):
+            o, r, _, _, _ = e.step(acts[i])
+            np.testing.assert_array_equal(vo[i], o)
+            assert vr[i] == r
+
+
 def test_vector_env_parallel_kernel_gives_the_same_results():
     kw = dict(SHORT["thermogym/AXT211Room-v0"])
     runs = []

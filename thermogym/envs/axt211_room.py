@@ -91,11 +91,12 @@ Version History
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba as nb
 import numpy as np
@@ -641,13 +642,6 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
 
 
 _BW = 32  # lanes of a full block (77 rows x 32 lanes x 8 B = 19 KiB: L1 cache)
-_lockstep_32, _st_32 = _make_lockstep(32, 0)
-_lockstep_8, _st_8 = _make_lockstep(8, 0)
-_lockstep_1, _st_1 = _make_lockstep(1, 0)
-_lockstep_32_eq, _st_32_eq = _make_lockstep(32, 1)
-_lockstep_8_eq, _st_8_eq = _make_lockstep(8, 1)
-_lockstep_1_eq, _st_1_eq = _make_lockstep(1, 1)
-_STAGE_LOOPS = (*_st_32, *_st_8, *_st_1, *_st_32_eq, *_st_8_eq, *_st_1_eq)
 
 
 @nb.njit(cache=True)
@@ -659,137 +653,6 @@ def _part(L, hmax):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True)
-def _room_block(
-    b0, W, wb, act, active, x, p, lanes, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0, ok, lo
-):  # pragma: no cover - numba
-    # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid
-    T = cfg[_T]
-    hmax = cfg[_HMAX]
-    kind = int(cfg[_KIND])
-    status = 0
-    nmax = 0
-    for i in range(W):
-        b = b0 + i
-        j = b - lo
-        non, n_off, hon, hoff, mqon, mqoff = 0, 0, 0.0, 0.0, 1.0, 1.0
-        Tout, Qint = 0.0, 0.0
-        if active[b]:
-            d = _room_action(b, act, cfg, ctr)
-            if d < 0.0:
-                status = 1
-            else:
-                ok[j] = True
-                dd[j] = d
-                xv0[j] = x[b, 3]
-                Tout, Qint = _room_inputs(b, dist, tab, ctr, cfg)
-                if lanes[_ax._LN_PLAIN, b] == 0.0:  # actuator effects: the scalar kernel
-                    EE[j], QQ[j], acc[b, _A_QLAST] = _room_dyn(
-                        x[b], d, dist[b, 0], Tout, Qint, p[b], T, hmax, kind, acc[b, _A_QLAST]
-                    )
-                else:
-                    ton = d * T
-                    toff = T - ton
-                    if ton > 0.0:
-                        non, hon, mqon = _part(ton, hmax)
-                    if toff > 1e-9 * T:
-                        n_off, hoff, mqoff = _part(toff, hmax)
-        ntot = non + n_off
-        nmax = max(nmax, ntot)
-        for k in range(_NQA):
-            wb[k * W + i] = lanes[k, b]
-        for k in range(_NQR):
-            wb[(_NQA + k) * W + i] = lanes[_ax._N_LANE + k, b]
-        for k in range(7):
-            wb[(_R_TP + k) * W + i] = x[b, k]
-        wb[_R_NON * W + i] = non
-        wb[_R_NTOT * W + i] = ntot
-        wb[_R_HON * W + i] = hon
-        wb[_R_HOFF * W + i] = hoff
-        wb[_R_MQON * W + i] = mqon
-        wb[_R_MQOFF * W + i] = mqoff
-        wb[_R_CNT * W + i] = 0.0
-        wb[_R_E * W + i] = 0.0
-        wb[_R_QON * W + i] = 0.0
-        wb[_R_QOFF * W + i] = 0.0
-        wb[_R_P0 * W + i] = 0.0
-        wb[_R_Q0 * W + i] = acc[b, _A_QLAST]
-        wb[_R_KU2 * W + i] = dist[b, 0] * dist[b, 0]
-        wb[_R_TOUT * W + i] = Tout
-        wb[_R_QINT * W + i] = Qint
-        wb[_R_TSUP * W + i] = _room._supply(Tout, p[b])  # heating curve, T_out held
-        for k in range(6):
-            wb[(_R_K + k) * W + i] = 0.0
-            wb[(_R_S + k) * W + i] = 0.0
-    if nmax > 0:
-        if kind == 0:
-            if W == 32:
-                _lockstep_32(wb, nmax)
-            elif W == 8:
-                _lockstep_8(wb, nmax)
-            else:
-                _lockstep_1(wb, nmax)
-        elif W == 32:
-            _lockstep_32_eq(wb, nmax)
-        elif W == 8:
-            _lockstep_8_eq(wb, nmax)
-        else:
-            _lockstep_1_eq(wb, nmax)
-        for i in range(W):
-            ntot = wb[_R_NTOT * W + i]
-            if ntot > 0.0:
-                b = b0 + i
-                for k in range(7):
-                    x[b, k] = wb[(_R_TP + k) * W + i]
-                non = wb[_R_NON * W + i]
-                E = 0.0  # sums as in _room_dyn: E = 0 + E_on, Q = 0 + Q_on + Q_off
-                Qsum = 0.0
-                if non > 0.0:
-                    E += wb[_R_E * W + i]
-                    Qsum += wb[_R_QON * W + i]
-                if ntot > non:
-                    Qsum += wb[_R_QOFF * W + i]
-                EE[b - lo] = E
-                QQ[b - lo] = Qsum
-                acc[b, _A_QLAST] = wb[_R_Q0 * W + i]
-    return status
-
-
-@nb.njit(cache=True)
-def _room_rows(
-    lo, hi, mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs,
-    out, sig,
-):  # fmt: skip  # pragma: no cover - numba
-    # plants lo..hi-1: step (mode 0: lockstep dynamics, then KPIs and measurement per plant)
-    # or observe (mode 1); returns 1 if an action was invalid (that plant does not move)
-    n = hi - lo
-    dd = np.zeros(n)
-    EE = np.zeros(n)
-    QQ = np.zeros(n)
-    xv0 = np.zeros(n)
-    ok = np.zeros(n, dtype=np.bool_)
-    status = 0
-    if mode == 0:
-        wb = np.empty(_NROW * _BW)
-        b = lo
-        while b < hi:
-            W = _BW if hi - b >= _BW else (8 if hi - b >= 8 else 1)
-            s = _room_block(
-                b, W, wb, act, active, x, p, lanes, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0,
-                ok, lo,
-            )  # fmt: skip
-            status = max(status, s)
-            b += W
-    for j in range(n):
-        b = lo + j
-        if (mode == 0 and ok[j]) or (mode == 1 and active[b]):
-            _room_post(
-                b, mode, dd[j], EE[j], QQ[j], xv0[j], x, p, dist, tab, acc, tpbuf, ctr, noise,
-                meas, cfg, obs, out, sig,
-            )  # fmt: skip
-    return status
-
-
-@nb.njit(cache=True)
 def _tp_full(active, ctr, tpbuf):  # pragma: no cover - numba
     for b in range(active.shape[0]):
         if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
@@ -797,84 +660,224 @@ def _tp_full(active, ctr, tpbuf):  # pragma: no cover - numba
     return False
 
 
-@nb.njit(cache=True)
-def _room_step(
-    mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
-):  # pragma: no cover - numba
-    if _tp_full(active, ctr, tpbuf):
-        return 2
-    return _room_rows(
-        0, x.shape[0], mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas,
-        cfg, obs, out, sig,
-    )  # fmt: skip
+class _StepKernels(NamedTuple):
+    step: Any
+    step_parallel: Any
+    rollout: Any
 
 
-@nb.njit(cache=True, parallel=True)
-def _room_step_parallel(
-    mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig,
-    nch,
-):  # fmt: skip  # pragma: no cover - numba
-    # nch chunks of whole blocks on the threads; each writes only its own rows, so results
-    # equal the serial ones
-    if _tp_full(active, ctr, tpbuf):
-        return 2
-    B = x.shape[0]
-    nblk = -(-B // _BW)
-    nch = min(nch, nblk)
-    st = np.zeros(nch, dtype=np.int64)
-    for c in nb.prange(nch):
-        lo = (nblk * c // nch) * _BW
-        hi = min((nblk * (c + 1) // nch) * _BW, B)
-        st[c] = _room_rows(
-            lo, hi, mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas,
+@functools.cache
+def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
+    """Compiled step kernels for valve characteristic ``kind``, with or without lockstep.
+
+    Without lockstep every plant advances by the scalar kernel (_room_dyn): a single
+    environment or a few plants, and nothing of the lockstep is compiled (its 5 heavily
+    inlined loops per variant take minutes to compile on a cold cache). With lockstep,
+    full blocks of _BW plants advance together (bit-identical to the scalar kernel for
+    plants without an actuator effect) and a partial block by the scalar kernel.
+    ``kind`` and ``lockstep`` are compile-time constants of the closures (pruned branches).
+    """
+    ls, stage_loops = _make_lockstep(_BW, kind) if lockstep else (None, ())
+
+    @nb.njit(cache=True)
+    def block(
+        b0, W, wb, act, active, x, p, lanes, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0, ok, lo
+    ):  # pragma: no cover - numba
+        # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid
+        T = cfg[_T]
+        hmax = cfg[_HMAX]
+        kind = int(cfg[_KIND])
+        status = 0
+        nmax = 0
+        for i in range(W):
+            b = b0 + i
+            j = b - lo
+            non, n_off, hon, hoff, mqon, mqoff = 0, 0, 0.0, 0.0, 1.0, 1.0
+            Tout, Qint = 0.0, 0.0
+            if active[b]:
+                d = _room_action(b, act, cfg, ctr)
+                if d < 0.0:
+                    status = 1
+                else:
+                    ok[j] = True
+                    dd[j] = d
+                    xv0[j] = x[b, 3]
+                    Tout, Qint = _room_inputs(b, dist, tab, ctr, cfg)
+                    # the scalar kernel: actuator effects, the lanes of a partial block, and every
+                    # plant of the variant without lockstep
+                    if not lockstep or W != _BW or lanes[_ax._LN_PLAIN, b] == 0.0:
+                        EE[j], QQ[j], acc[b, _A_QLAST] = _room_dyn(
+                            x[b], d, dist[b, 0], Tout, Qint, p[b], T, hmax, kind, acc[b, _A_QLAST]
+                        )
+                    else:
+                        ton = d * T
+                        toff = T - ton
+                        if ton > 0.0:
+                            non, hon, mqon = _part(ton, hmax)
+                        if toff > 1e-9 * T:
+                            n_off, hoff, mqoff = _part(toff, hmax)
+            ntot = non + n_off
+            nmax = max(nmax, ntot)
+            if not lockstep:
+                continue
+            for k in range(_NQA):
+                wb[k * W + i] = lanes[k, b]
+            for k in range(_NQR):
+                wb[(_NQA + k) * W + i] = lanes[_ax._N_LANE + k, b]
+            for k in range(7):
+                wb[(_R_TP + k) * W + i] = x[b, k]
+            wb[_R_NON * W + i] = non
+            wb[_R_NTOT * W + i] = ntot
+            wb[_R_HON * W + i] = hon
+            wb[_R_HOFF * W + i] = hoff
+            wb[_R_MQON * W + i] = mqon
+            wb[_R_MQOFF * W + i] = mqoff
+            wb[_R_CNT * W + i] = 0.0
+            wb[_R_E * W + i] = 0.0
+            wb[_R_QON * W + i] = 0.0
+            wb[_R_QOFF * W + i] = 0.0
+            wb[_R_P0 * W + i] = 0.0
+            wb[_R_Q0 * W + i] = acc[b, _A_QLAST]
+            wb[_R_KU2 * W + i] = dist[b, 0] * dist[b, 0]
+            wb[_R_TOUT * W + i] = Tout
+            wb[_R_QINT * W + i] = Qint
+            wb[_R_TSUP * W + i] = _room._supply(Tout, p[b])  # heating curve, T_out held
+            for k in range(6):
+                wb[(_R_K + k) * W + i] = 0.0
+                wb[(_R_S + k) * W + i] = 0.0
+        if not lockstep:  # (a compile-time constant: the lockstep code is pruned)
+            return status
+        if nmax > 0:
+            ls(wb, nmax)
+            for i in range(W):
+                ntot = wb[_R_NTOT * W + i]
+                if ntot > 0.0:
+                    b = b0 + i
+                    for k in range(7):
+                        x[b, k] = wb[(_R_TP + k) * W + i]
+                    non = wb[_R_NON * W + i]
+                    E = 0.0  # sums as in _room_dyn: E = 0 + E_on, Q = 0 + Q_on + Q_off
+                    Qsum = 0.0
+                    if non > 0.0:
+                        E += wb[_R_E * W + i]
+                        Qsum += wb[_R_QON * W + i]
+                    if ntot > non:
+                        Qsum += wb[_R_QOFF * W + i]
+                    EE[b - lo] = E
+                    QQ[b - lo] = Qsum
+                    acc[b, _A_QLAST] = wb[_R_Q0 * W + i]
+        return status
+
+    @nb.njit(cache=True)
+    def rows(
+        lo, hi, mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs,
+        out, sig,
+    ):  # fmt: skip  # pragma: no cover - numba
+        # plants lo..hi-1: step (mode 0: lockstep dynamics, then KPIs and measurement per plant)
+        # or observe (mode 1); returns 1 if an action was invalid (that plant does not move)
+        n = hi - lo
+        dd = np.zeros(n)
+        EE = np.zeros(n)
+        QQ = np.zeros(n)
+        xv0 = np.zeros(n)
+        ok = np.zeros(n, dtype=np.bool_)
+        status = 0
+        if mode == 0:
+            wb = np.empty(_NROW * _BW)
+            b = lo
+            while b < hi:
+                W = min(_BW, hi - b)
+                s = block(
+                    b, W, wb, act, active, x, p, lanes, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0,
+                    ok, lo,
+                )  # fmt: skip
+                status = max(status, s)
+                b += W
+        for j in range(n):
+            b = lo + j
+            if (mode == 0 and ok[j]) or (mode == 1 and active[b]):
+                _room_post(
+                    b, mode, dd[j], EE[j], QQ[j], xv0[j], x, p, dist, tab, acc, tpbuf, ctr, noise,
+                    meas, cfg, obs, out, sig,
+                )  # fmt: skip
+        return status
+
+    @nb.njit(cache=True)
+    def step(
+        mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+    ):  # pragma: no cover - numba
+        if _tp_full(active, ctr, tpbuf):
+            return 2
+        return rows(
+            0, x.shape[0], mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas,
             cfg, obs, out, sig,
         )  # fmt: skip
-    return st.max()
+
+    @nb.njit(cache=True, parallel=True)
+    def step_parallel(
+        mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig,
+        nch,
+    ):  # fmt: skip  # pragma: no cover - numba
+        # nch chunks of whole blocks on the threads; each writes only its own rows, so results
+        # equal the serial ones
+        if _tp_full(active, ctr, tpbuf):
+            return 2
+        B = x.shape[0]
+        nblk = -(-B // _BW)
+        nch = min(nch, nblk)
+        st = np.zeros(nch, dtype=np.int64)
+        for c in nb.prange(nch):
+            lo = (nblk * c // nch) * _BW
+            hi = min((nblk * (c + 1) // nch) * _BW, B)
+            st[c] = rows(
+                lo, hi, mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas,
+                cfg, obs, out, sig,
+            )  # fmt: skip
+        return st.max()
+
+    @nb.njit
+    def rollout(
+        ctrl,
+        cstate,
+        n,
+        act,
+        active,
+        x,
+        p,
+        lanes,
+        dist,
+        tab,
+        acc,
+        tpbuf,
+        ctr,
+        noise,
+        meas,
+        cfg,
+        obs,
+        out,
+        sig,
+    ):  # pragma: no cover - numba
+        # compiled controller loop over the same step kernel (one plant)
+        total = 0.0
+        for i in range(n):
+            act[0, 0] = ctrl(obs[0], cstate)
+            status = step(
+                0, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out,
+                sig,
+            )  # fmt: skip
+            if status != 0:
+                return status, i, total
+            total += out[0, 0]
+            if out[0, 1] > 0.5 or out[0, 2] > 0.5:
+                return 0, i + 1, total
+        return 0, n, total
+
+    for k in (*([ls] if lockstep else []), *stage_loops, block, rows, step, step_parallel):
+        cache_depends_on(k, _ax, _room, _kpis, _kernels)
+    return _StepKernels(step, step_parallel, rollout)
 
 
-@nb.njit
-def _room_rollout(
-    ctrl,
-    cstate,
-    n,
-    act,
-    active,
-    x,
-    p,
-    lanes,
-    dist,
-    tab,
-    acc,
-    tpbuf,
-    ctr,
-    noise,
-    meas,
-    cfg,
-    obs,
-    out,
-    sig,
-):  # pragma: no cover - numba
-    # compiled controller loop over the same step kernel (one plant)
-    total = 0.0
-    for i in range(n):
-        act[0, 0] = ctrl(obs[0], cstate)
-        status = _room_step(
-            0, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out,
-            sig,
-        )  # fmt: skip
-        if status != 0:
-            return status, i, total
-        total += out[0, 0]
-        if out[0, 1] > 0.5 or out[0, 2] > 0.5:
-            return 0, i + 1, total
-    return 0, n, total
-
-
-for _k in (
-    _room_dyn, _room_post, _lockstep_32, _lockstep_8,
-    _lockstep_1, _lockstep_32_eq, _lockstep_8_eq, _lockstep_1_eq, *_STAGE_LOOPS, _part,
-    _room_block, _room_rows, _tp_full, _room_step, _room_step_parallel,
-):  # fmt: skip
+for _k in (_room_dyn, _room_post, _part, _tp_full):
     cache_depends_on(_k, _ax, _room, _kpis, _kernels)
 
 
@@ -1033,9 +1036,10 @@ class _RoomEngine(Engine):
             self.acc, self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv, self.obs,
             self.out, self.sig,
         )  # fmt: skip
+        k = _step_kernels(int(self.cfgv[_KIND]), self.B >= _BW)
         if self.parallel and self.B > _BW:
-            return int(_room_step_parallel(*args, nb.get_num_threads()))
-        return int(_room_step(*args))
+            return int(k.step_parallel(*args, nb.get_num_threads()))
+        return int(k.step(*args))
 
     def kpis(self, b: int) -> dict[str, float]:
         a = self.acc[b]
@@ -1078,7 +1082,7 @@ class _RoomEngine(Engine):
             n = min(NOISE_BLOCK - int(self.ctr[0, C_CUR]), max_steps - done_steps)
             if self.ctr[0, 2] + n >= self.tpbuf.shape[1] - 1:
                 self.tpbuf = np.concatenate([self.tpbuf, np.zeros_like(self.tpbuf)], axis=1)
-            status, i, r = _room_rollout(
+            status, i, r = _step_kernels(int(self.cfgv[_KIND]), False).rollout(
                 controller, state, n, self.act, self.active, self.x, self.p, self.lanes, self.dist,
                 self.tab, self.acc, self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv,
                 self.obs, self.out, self.sig,

@@ -83,10 +83,11 @@ Version History
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba as nb
 import numpy as np
@@ -408,121 +409,8 @@ def _lockstep(wb, W, nmax):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, error_model="numpy")
-def _lockstep_64(wb, nmax):  # pragma: no cover - numba
-    _lockstep(wb, 64, nmax)
-
-
-@nb.njit(cache=True, error_model="numpy")
-def _lockstep_8(wb, nmax):  # pragma: no cover - numba
-    _lockstep(wb, 8, nmax)
-
-
-@nb.njit(cache=True, error_model="numpy")
-def _lockstep_1(wb, nmax):  # pragma: no cover - numba
-    _lockstep(wb, 1, nmax)
-
-
-if _BW != 64:
-    raise ImportError("_BW must match the width of _lockstep_64")
-
-
-@nb.njit(cache=True)
-def _valve_block(b0, W, wb, act, active, x, p, lanes, dist, cfg, ctr, dd, EE, xv0, ok, lo):
-    # pragma: no cover - numba
-    # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid
-    T = cfg[_T]
-    hmax = cfg[_HMAX]
-    status = 0
-    nmax = 0
-    for i in range(W):
-        b = b0 + i
-        j = b - lo
-        non, ntot, hon, hoff, mq = 0, 0, 0.0, 0.0, 1.0
-        if active[b]:
-            d = _action(b, act, cfg, ctr)
-            if d < 0.0:
-                status = 1
-            else:
-                ok[j] = True
-                dd[j] = d
-                xv0[j] = x[b, 3]
-                if lanes[_ax._LN_PLAIN, b] == 0.0:  # physical effects: the scalar kernel
-                    EE[j] = _dyn_scalar(x[b], d, dist[b, 0], dist[b, 1], p[b], T, hmax)
-                else:
-                    non, hon, n_off, hoff = _segments(d, T, hmax)
-                    ntot = non + n_off
-                    if non > 0:
-                        mq = float(max(1, int(QUAD_S / hon + 1e-9)))
-        nmax = max(nmax, ntot)
-        for k in range(_NQ):
-            wb[k * W + i] = lanes[k, b]
-        wb[_R_TP * W + i] = x[b, 0]
-        wb[_R_TG * W + i] = x[b, 1]
-        wb[_R_XP * W + i] = x[b, 2]
-        wb[_R_XV * W + i] = x[b, 3]
-        wb[_R_NON * W + i] = non
-        wb[_R_NTOT * W + i] = ntot
-        wb[_R_HON * W + i] = hon
-        wb[_R_HOFF * W + i] = hoff
-        wb[_R_MQ * W + i] = mq
-        wb[_R_CNT * W + i] = 0.0
-        wb[_R_E * W + i] = 0.0
-        wb[_R_P0 * W + i] = 0.0
-        wb[_R_KU2 * W + i] = dist[b, 0] * dist[b, 0]
-        wb[_R_TU * W + i] = dist[b, 1]
-    if nmax > 0:
-        if W == 64:
-            _lockstep_64(wb, nmax)
-        elif W == 8:
-            _lockstep_8(wb, nmax)
-        else:
-            _lockstep_1(wb, nmax)
-        for i in range(W):
-            if wb[_R_NTOT * W + i] > 0.0:
-                b = b0 + i
-                x[b, 0] = wb[_R_TP * W + i]
-                x[b, 1] = wb[_R_TG * W + i]
-                x[b, 2] = wb[_R_XP * W + i]
-                x[b, 3] = wb[_R_XV * W + i]
-                EE[b - lo] = wb[_R_E * W + i]
-    return status
-
-
-@nb.njit(cache=True)
-def _valve_rows(
-    lo, hi, mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs,
-    out, sig,
-):  # fmt: skip  # pragma: no cover - numba
-    # plants lo..hi-1: step (mode 0: lockstep dynamics, then KPIs and measurement per plant)
-    # or observe (mode 1); returns 1 if an action was invalid (that plant does not move)
-    n = hi - lo
-    dd = np.zeros(n)
-    EE = np.zeros(n)
-    xv0 = np.zeros(n)
-    ok = np.zeros(n, dtype=np.bool_)
-    status = 0
-    if mode == 0:
-        wb = np.empty(_NROW * _BW)
-        b = lo
-        while b < hi:
-            W = _BW if hi - b >= _BW else (8 if hi - b >= 8 else 1)
-            s = _valve_block(
-                b, W, wb, act, active, x, p, lanes, dist, cfg, ctr, dd, EE, xv0, ok, lo
-            )
-            status = max(status, s)
-            b += W
-    for j in range(n):
-        b = lo + j
-        if mode == 0 and not ok[j]:
-            continue
-        if mode == 1 and not active[b]:
-            continue
-        _valve_post(
-            b, mode, dd[j], EE[j], x[b, 3] if mode == 1 else xv0[j], x[b, 0], x[b, 1],
-            x[b, 3], p[b, _ax._I_XMAX], dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out,
-            sig,
-        )  # fmt: skip
-    return status
+def _lockstep_bw(wb, nmax):  # pragma: no cover - numba
+    _lockstep(wb, _BW, nmax)
 
 
 @nb.njit(cache=True)
@@ -533,46 +421,160 @@ def _tp_full(active, ctr, tpbuf):  # pragma: no cover - numba
     return False
 
 
-@nb.njit(cache=True)
-def _valve_step(
-    mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
-):  # pragma: no cover - numba
-    if _tp_full(active, ctr, tpbuf):
-        return 2
-    return _valve_rows(
-        0, x.shape[0], mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas,
-        cfg, obs, out, sig,
-    )  # fmt: skip
+class _StepKernels(NamedTuple):
+    step: Any
+    step_parallel: Any
 
 
-@nb.njit(cache=True, parallel=True)
-def _valve_step_parallel(
-    mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig,
-    nch,
-):  # fmt: skip  # pragma: no cover - numba
-    # nch chunks of whole blocks on the threads; each writes only its own rows, so results
-    # equal the serial ones
-    if _tp_full(active, ctr, tpbuf):
-        return 2
-    B = x.shape[0]
-    nblk = -(-B // _BW)
-    nch = min(nch, nblk)
-    st = np.zeros(nch, dtype=np.int64)
-    for c in nb.prange(nch):
-        lo = (nblk * c // nch) * _BW
-        hi = min((nblk * (c + 1) // nch) * _BW, B)
-        st[c] = _valve_rows(
-            lo, hi, mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas,
+@functools.cache
+def _step_kernels(lockstep: bool) -> _StepKernels:
+    """Compiled step kernels, with or without lockstep.
+
+    Without lockstep every plant advances by the scalar kernel (_dyn_scalar): a single
+    environment or a few plants, and the heavily inlined lockstep loop (a minute and more
+    to compile on a cold cache) is not compiled. With lockstep, full blocks of _BW plants
+    advance together (bit-identical to the scalar kernel for plants without a physical
+    effect) and a partial block by the scalar kernel. ``lockstep`` is a compile-time
+    constant of the closures (its branches are pruned).
+    """
+    ls = _lockstep_bw if lockstep else None
+
+    @nb.njit(cache=True)
+    def block(
+        b0, W, wb, act, active, x, p, lanes, dist, cfg, ctr, dd, EE, xv0, ok, lo
+    ):  # pragma: no cover - numba
+        # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid
+        T = cfg[_T]
+        hmax = cfg[_HMAX]
+        status = 0
+        nmax = 0
+        for i in range(W):
+            b = b0 + i
+            j = b - lo
+            non, ntot, hon, hoff, mq = 0, 0, 0.0, 0.0, 1.0
+            if active[b]:
+                d = _action(b, act, cfg, ctr)
+                if d < 0.0:
+                    status = 1
+                else:
+                    ok[j] = True
+                    dd[j] = d
+                    xv0[j] = x[b, 3]
+                    # the scalar kernel: physical effects, the lanes of a partial block, and every
+                    # plant of the variant without lockstep
+                    if not lockstep or W != _BW or lanes[_ax._LN_PLAIN, b] == 0.0:
+                        EE[j] = _dyn_scalar(x[b], d, dist[b, 0], dist[b, 1], p[b], T, hmax)
+                    else:
+                        non, hon, n_off, hoff = _segments(d, T, hmax)
+                        ntot = non + n_off
+                        if non > 0:
+                            mq = float(max(1, int(QUAD_S / hon + 1e-9)))
+            nmax = max(nmax, ntot)
+            if not lockstep:
+                continue
+            for k in range(_NQ):
+                wb[k * W + i] = lanes[k, b]
+            wb[_R_TP * W + i] = x[b, 0]
+            wb[_R_TG * W + i] = x[b, 1]
+            wb[_R_XP * W + i] = x[b, 2]
+            wb[_R_XV * W + i] = x[b, 3]
+            wb[_R_NON * W + i] = non
+            wb[_R_NTOT * W + i] = ntot
+            wb[_R_HON * W + i] = hon
+            wb[_R_HOFF * W + i] = hoff
+            wb[_R_MQ * W + i] = mq
+            wb[_R_CNT * W + i] = 0.0
+            wb[_R_E * W + i] = 0.0
+            wb[_R_P0 * W + i] = 0.0
+            wb[_R_KU2 * W + i] = dist[b, 0] * dist[b, 0]
+            wb[_R_TU * W + i] = dist[b, 1]
+        if not lockstep:  # (a compile-time constant: the lockstep code is pruned)
+            return status
+        if nmax > 0:
+            ls(wb, nmax)
+            for i in range(W):
+                if wb[_R_NTOT * W + i] > 0.0:
+                    b = b0 + i
+                    x[b, 0] = wb[_R_TP * W + i]
+                    x[b, 1] = wb[_R_TG * W + i]
+                    x[b, 2] = wb[_R_XP * W + i]
+                    x[b, 3] = wb[_R_XV * W + i]
+                    EE[b - lo] = wb[_R_E * W + i]
+        return status
+
+    @nb.njit(cache=True)
+    def rows(
+        lo, hi, mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs,
+        out, sig,
+    ):  # fmt: skip  # pragma: no cover - numba
+        # plants lo..hi-1: step (mode 0: lockstep dynamics, then KPIs and measurement per plant)
+        # or observe (mode 1); returns 1 if an action was invalid (that plant does not move)
+        n = hi - lo
+        dd = np.zeros(n)
+        EE = np.zeros(n)
+        xv0 = np.zeros(n)
+        ok = np.zeros(n, dtype=np.bool_)
+        status = 0
+        if mode == 0:
+            wb = np.empty(_NROW * _BW)
+            b = lo
+            while b < hi:
+                W = min(_BW, hi - b)
+                s = block(b, W, wb, act, active, x, p, lanes, dist, cfg, ctr, dd, EE, xv0, ok, lo)
+                status = max(status, s)
+                b += W
+        for j in range(n):
+            b = lo + j
+            if mode == 0 and not ok[j]:
+                continue
+            if mode == 1 and not active[b]:
+                continue
+            _valve_post(
+                b, mode, dd[j], EE[j], x[b, 3] if mode == 1 else xv0[j], x[b, 0], x[b, 1],
+                x[b, 3], p[b, _ax._I_XMAX], dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out,
+                sig,
+            )  # fmt: skip
+        return status
+
+    @nb.njit(cache=True)
+    def step(
+        mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+    ):  # pragma: no cover - numba
+        if _tp_full(active, ctr, tpbuf):
+            return 2
+        return rows(
+            0, x.shape[0], mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas,
             cfg, obs, out, sig,
         )  # fmt: skip
-    return st.max()
+
+    @nb.njit(cache=True, parallel=True)
+    def step_parallel(
+        mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig,
+        nch,
+    ):  # fmt: skip  # pragma: no cover - numba
+        # nch chunks of whole blocks on the threads; each writes only its own rows, so results
+        # equal the serial ones
+        if _tp_full(active, ctr, tpbuf):
+            return 2
+        B = x.shape[0]
+        nblk = -(-B // _BW)
+        nch = min(nch, nblk)
+        st = np.zeros(nch, dtype=np.int64)
+        for c in nb.prange(nch):
+            lo = (nblk * c // nch) * _BW
+            hi = min((nblk * (c + 1) // nch) * _BW, B)
+            st[c] = rows(
+                lo, hi, mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas,
+                cfg, obs, out, sig,
+            )  # fmt: skip
+        return st.max()
+
+    for k in (block, rows, step, step_parallel):
+        cache_depends_on(k, _ax, _kpis, _kernels)
+    return _StepKernels(step, step_parallel)
 
 
-for _k in (
-    _dyn_scalar, _valve_post, _quad_point, _lockstep_64,
-    _lockstep_8, _lockstep_1, _valve_block, _valve_rows, _tp_full, _valve_step,
-    _valve_step_parallel,
-):  # fmt: skip
+for _k in (_dyn_scalar, _valve_post, _quad_point, _lockstep_bw, _tp_full):
     cache_depends_on(_k, _ax, _kpis, _kernels)
 
 
@@ -734,8 +736,8 @@ class _ValveEngine(Engine):
             self.out, self.sig,
         )  # fmt: skip
         if self.parallel and self.B > _BW:
-            return int(_valve_step_parallel(*args, nb.get_num_threads()))
-        return int(_valve_step(*args))
+            return int(_step_kernels(True).step_parallel(*args, nb.get_num_threads()))
+        return int(_step_kernels(self.B >= _BW).step(*args))
 
     def kpis(self, b: int) -> dict[str, float]:
         a = self.acc[b]
