@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -184,7 +185,7 @@ def test_c_kalman_observer_with_measured_channels(tmp_path):
 
 
 @needs_cc
-def test_cli_export_then_host_test(tmp_path, capsys):
+def test_cli_export_then_host_test(tmp_path, capsys, monkeypatch):
     from thermogym.firmware.selftest import rig_day
     from thermogym.recording import Recording, write_recording
 
@@ -205,6 +206,9 @@ def test_cli_export_then_host_test(tmp_path, capsys):
     assert code == 0, capsys.readouterr()
     assert "exported the order-8 observer" in capsys.readouterr().out
     assert run_host_test(tmp_path / "fw").passed
+    # a relative folder works as well (the compiler runs inside the folder)
+    monkeypatch.chdir(tmp_path)
+    assert run_host_test(Path("fw")).passed
     assert main(["firmware", "budget", str(fit_path)]) == 0
     assert json.loads(capsys.readouterr().out)["fits"] is True
 

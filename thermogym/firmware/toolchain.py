@@ -100,7 +100,7 @@ def run_host_test(folder: Path, *, cflags: str = "", timeout: float = 300.0) -> 
     cc = host_compiler()
     if cc is None:
         raise ToolchainError("no host C compiler (cc/gcc) found")
-    folder = Path(folder)
+    folder = Path(folder).resolve()  # the tools run inside it: relative paths would break
     exe = folder / "build" / "test_host"
     exe.parent.mkdir(exist_ok=True)
     flags = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror", *cflags.split()]
@@ -165,7 +165,7 @@ def avr_size_probe(
         ``text``, ``data``, ``bss``, ``flash_bytes`` (text + data) and
         ``ram_bytes`` (data + bss, static RAM).
     """
-    folder = Path(folder)
+    folder = Path(folder).resolve()  # the tools run inside it: relative paths would break
     elf = folder / "build" / "avr_probe.elf"
     elf.parent.mkdir(exist_ok=True)
     _run(
@@ -234,7 +234,7 @@ def run_simavr(
         Time 16 steps on synthetic inputs without vector tables (a model that
         leaves no flash for them); errors are then not measured.
     """
-    folder = Path(folder)
+    folder = Path(folder).resolve()  # the tools run inside it: relative paths would break
     if not timing_only and not (folder / "vs_vectors.h").exists():
         raise ToolchainError(f"{folder}/vs_vectors.h is missing; export with vectors first")
     elf = folder / "build" / ("avr_timing.elf" if timing_only else "avr_harness.elf")
