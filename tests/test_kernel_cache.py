@@ -1,0 +1,81 @@
+"""On-disk caching of the environments' compiled kernels across processes."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+from thermogym.envs._kernels import _cell_key, _StableIndexKey
+
+MODULE = textwrap.dedent(
+    """
+    import json, sys
+    import numba as nb
+    import numpy as np
+    from thermogym.envs._kernels import cache_depends_on
+
+    @nb.njit(cache=True)
+    def inner(x, k):
+        return x * k
+
+    def make(kern, k):
+        @nb.njit(cache=True)
+        def outer(x):  # a closure over a compiled kernel and a constant
+            return kern(x, k) + 1.0
+
+        return cache_depends_on(outer)
+
+    f = make(inner, int(sys.argv[1]))
+    value = f(np.float64(2.0))
+    print(json.dumps({"value": value, "hits": sum(f.stats.cache_hits.values())}))
+    """
+)
+
+
+def _run(tmp_path, k: int) -> dict:
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    out = subprocess.run(
+        [sys.executable, str(tmp_path / "factory.py"), str(k)],
+        env=env, capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_a_closure_over_a_kernel_is_loaded_from_the_cache_in_a_new_process(tmp_path):
+    (tmp_path / "factory.py").write_text(MODULE)
+    first = _run(tmp_path, 3)
+    second = _run(tmp_path, 3)
+    assert first == {"value": 7.0, "hits": 0}  # compiled
+    assert second == {"value": 7.0, "hits": 1}  # loaded, not compiled again
+    # another constant is another kernel: compiled, never the cached k = 3 code
+    assert _run(tmp_path, 5) == {"value": 11.0, "hits": 0}
+    assert _run(tmp_path, 3)["hits"] == 1
+
+
+def test_stable_key_describes_kernels_by_name_and_constants():
+    import numba as nb
+
+    def make(k):
+        @nb.njit
+        def f(x):
+            return x + k
+
+        return f
+
+    a, b, c = make(1), make(1), make(2)
+    assert _cell_key(a) == _cell_key(b) != _cell_key(c)
+    assert _cell_key((1, None, "s")) == (1, None, "s")
+
+    def g(x):
+        return a(x)
+
+    assert _StableIndexKey(g)._cells == _StableIndexKey(g)._cells
+    try:
+        _cell_key(object())
+    except TypeError as e:
+        assert "object" in str(e)
+    else:  # pragma: no cover
+        raise AssertionError("an object without a stable description must be refused")
