@@ -503,6 +503,13 @@ def test_rig_plant_differs_from_the_model_only_through_its_physics():
     )  # fmt: skip
     obs, _ = e.reset(seed=0)
     assert obs[1] - obs[0] == pytest.approx(1.0, abs=1e-3)  # front housing reads 1 K high
+    # the rig's own default magnitude applies when only the channel is named (AXT211: 1.5 K)
+    e = gym.make(
+        "thermogym/AXT211Valve-v0", plant="rig", rig_effects=["sensor_offset:signal=T_G"],
+        sensor_noise=False,
+    ).unwrapped  # fmt: skip
+    obs, _ = e.reset(seed=0)
+    assert obs[1] - e.true_outputs()["T_G"] == pytest.approx(1.5, abs=0.02)  # 0.01 K steps
 
 
 def test_network_rig_with_nonlinear_physics():

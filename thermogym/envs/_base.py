@@ -210,6 +210,9 @@ class Engine:
     #: Panels of the rendered figure: (y label, signal names).
     panels: ClassVar[tuple[tuple[str, tuple[str, ...]], ...]] = ()
 
+    _dt: float
+    _horizon: int
+
     def __init__(self, B: int, plant: Plant, n_acc: int, tp_capacity: int = 0) -> None:
         self.B = int(B)
         self.plant = plant
@@ -273,13 +276,13 @@ class Engine:
 
     @property
     def dt(self) -> float:
-        """Control period [s]."""
-        raise NotImplementedError
+        """Control period [s] (subclasses set ``_dt``)."""
+        return self._dt
 
     @property
     def horizon(self) -> int:
-        """Episode length in control steps."""
-        raise NotImplementedError
+        """Episode length in control steps (subclasses set ``_horizon``)."""
+        return self._horizon
 
     # ---- shared
     def set_theta(

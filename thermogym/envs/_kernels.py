@@ -32,9 +32,12 @@ __all__ = [
     "M_OFF",
     "M_RES",
     "M_SIG",
+    "block_steppers",
     "cache_depends_on",
     "meas_array",
     "measure",
+    "plant_loops",
+    "tp_buffer_full",
     "tp_push",
 ]
 
@@ -75,6 +78,96 @@ def cache_depends_on(dispatcher: Any, *modules: ModuleType) -> Any:
             return dispatcher
         cache._index_key = key
     return dispatcher
+
+
+def plant_loops(row: Any, *modules: ModuleType) -> tuple[Any, Any]:
+    """Serial and parallel kernels that step every active plant with a row kernel.
+
+    ``row(b, *args)`` advances (or observes) plant ``b`` and returns its status
+    (0, or 1 for an invalid action). The returned kernels take
+    ``(active, *args)`` and return the largest status: ``serial`` loops over the
+    plants, ``parallel`` gives one plant per thread (numba ``prange``; each row
+    writes only its own plant, so the results equal the serial ones). ``modules``
+    are those whose sources the row's compiled code depends on (its own module
+    first), as :func:`cache_depends_on`.
+    """
+
+    @nb.njit(cache=True)
+    def serial(active, *args):  # type: ignore[no-untyped-def]  # pragma: no cover - numba
+        status = 0
+        for b in range(active.shape[0]):
+            if active[b]:
+                status = max(status, row(b, *args))
+        return status
+
+    @nb.njit(cache=True, parallel=True)
+    def parallel(active, *args):  # type: ignore[no-untyped-def]  # pragma: no cover - numba
+        st = np.zeros(active.shape[0], dtype=np.int64)
+        for i in nb.prange(active.shape[0]):
+            b = np.int64(i)  # the prange index is unsigned; keep index arithmetic signed
+            if active[b]:
+                st[b] = row(b, *args)
+        return st.max() if st.shape[0] > 0 else 0
+
+    for k in (serial, parallel):
+        cache_depends_on(k, *modules)
+    return serial, parallel
+
+
+@nb.njit(cache=True)
+def tp_buffer_full(active, ctr, tpbuf):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """Whether an active plant's turning-point buffer is full (grow it before any plant moves)."""
+    for b in range(active.shape[0]):
+        if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
+            return True
+    return False
+
+
+def block_steppers(rows: Any, bw: int, *modules: ModuleType) -> tuple[Any, Any]:
+    """Step kernels of the AXT211 environments around their ``rows`` kernel.
+
+    ``rows(lo, hi, mode, act, active, x, p, lanes, dist, aux, acc, tpbuf, ctr, noise, meas,
+    cfg, obs, out, sig)`` steps (mode 0) or observes (mode 1) plants ``lo..hi-1`` in blocks
+    of ``bw``. Returns ``step(mode, act, ...)`` over all plants, and ``step_parallel(...,
+    nch)`` over ``nch`` chunks of whole blocks on threads (each chunk writes only its own
+    rows, so results equal the serial ones). Both return 2 when a turning-point buffer must
+    grow first (nothing moved), else the largest status of ``rows``.
+    """
+
+    @nb.njit(cache=True)
+    def step(
+        mode, act, active, x, p, lanes, dist, aux, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
+    ):  # type: ignore[no-untyped-def]  # pragma: no cover - numba
+        if tp_buffer_full(active, ctr, tpbuf):
+            return 2
+        return rows(
+            0, x.shape[0], mode, act, active, x, p, lanes, dist, aux, acc, tpbuf, ctr, noise,
+            meas, cfg, obs, out, sig,
+        )  # fmt: skip
+
+    @nb.njit(cache=True, parallel=True)
+    def step_parallel(
+        mode, act, active, x, p, lanes, dist, aux, acc, tpbuf, ctr, noise, meas, cfg, obs, out,
+        sig, nch,
+    ):  # type: ignore[no-untyped-def]  # fmt: skip  # pragma: no cover - numba
+        if tp_buffer_full(active, ctr, tpbuf):
+            return 2
+        B = x.shape[0]
+        nblk = -(-B // bw)
+        nch = min(nch, nblk)
+        st = np.zeros(nch, dtype=np.int64)
+        for c in nb.prange(nch):
+            lo = (nblk * c // nch) * bw
+            hi = min((nblk * (c + 1) // nch) * bw, B)
+            st[c] = rows(
+                lo, hi, mode, act, active, x, p, lanes, dist, aux, acc, tpbuf, ctr, noise, meas,
+                cfg, obs, out, sig,
+            )  # fmt: skip
+        return st.max()
+
+    for k in (step, step_parallel):
+        cache_depends_on(k, *modules)
+    return step, step_parallel
 
 
 def _cell_key(v: Any) -> Any:

@@ -67,6 +67,30 @@ class Plant:
     sensors: dict[str, Any] = field(default_factory=dict)
     rig: Any = None
 
+    def sensor_errors(
+        self, channels: Sequence[str], n: int
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Offset and drift per hour of the first ``len(channels)`` of ``n`` observations.
+
+        From the rig's ``sensor_offset`` and ``sensor_drift`` effects (their
+        settings over the rig's defaults, as the rig applies them) on an
+        observed channel; zeros elsewhere and for the identified model.
+        """
+        offset = np.zeros(n)
+        drift = np.zeros(n)
+        for eff in self.rig_effects:
+            if eff.name not in ("sensor_offset", "sensor_drift"):
+                continue
+            s = {**self.rig.effect_defaults.get(eff.name, {}), **eff.params}
+            if s.get("signal") not in channels:
+                continue
+            j = list(channels).index(s["signal"])
+            if eff.name == "sensor_offset":
+                offset[j] = float(s["offset"])
+            else:
+                drift[j] = float(s["rate"])
+        return offset, drift
+
 
 def load_params(params: ParamsLike, models: Sequence[str], env: str) -> FitResult | None:
     """Load ``params`` and check that it is a FitResult of one of ``models``."""
@@ -90,6 +114,7 @@ def resolve_plant(
     default: Callable[[], Model] | ParamsLike,
     rig: str | None,
     rig_effects: Sequence[Any] = (),
+    stepwise_effects: Sequence[str] = (),
     rig_model: Callable[[Model, Sequence[str]], Model] | None = None,
     specimen: Mapping[str, float] | None = None,
 ) -> Plant:
@@ -109,6 +134,9 @@ def resolve_plant(
         Rig name of :func:`thermogym.rigs.get_rig` (None: no rig).
     rig_effects : sequence
         ``NAME[:k=v,...]`` effects of the rig.
+    stepwise_effects : sequence of str
+        The rig effects the environment can apply step by step (the others act
+        on whole recordings: delays, lags, hidden disturbances).
     rig_model : callable, optional
         ``rig_model(rig_plant_model, internal_effects) -> Model``: the model the
         environment runs for the rig (e.g. the room around the rig's
@@ -120,11 +148,17 @@ def resolve_plant(
     ------
     ConfigError
         Unknown ``plant``, ``params`` with ``plant="rig"``, ``rig_effects``
-        with ``plant="model"``, no rig for this environment, a FitResult of
-        another model.
+        with ``plant="model"`` or not available step-wise, no rig for this
+        environment, a FitResult of another model.
     """
     if plant not in PLANTS:
         raise ConfigError(f"{env}: plant is {plant!r}; expected one of {PLANTS}")
+    bad = [e for e in rig_effects if str(e).split(":")[0] not in stepwise_effects]
+    if bad:
+        raise ConfigError(
+            f"{env}: rig effect(s) {bad} are not available step-wise in environments; "
+            f"available: {list(stepwise_effects)}"
+        )
     if plant == "model":
         if rig_effects:
             raise ConfigError(

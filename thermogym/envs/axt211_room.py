@@ -94,6 +94,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -120,7 +121,13 @@ from thermogym.envs._base import (
     parse_weights,
     steps_of,
 )
-from thermogym.envs._kernels import cache_depends_on, meas_array, measure, tp_push
+from thermogym.envs._kernels import (
+    block_steppers,
+    cache_depends_on,
+    meas_array,
+    measure,
+    tp_push,
+)
 from thermogym.envs._plant import ParamsLike, resolve_plant
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update
 from thermogym.envs.profiles import synthetic_weather
@@ -641,6 +648,9 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
     return lockstep, (st1, st2, st3, st4)
 
 
+#: Modules whose sources the compiled kernels of this module contain.
+_DEPS = (_ax, _room, _kpis, _kernels)
+
 _BW = 32  # lanes of a full block (77 rows x 32 lanes x 8 B = 19 KiB: L1 cache)
 
 
@@ -650,14 +660,6 @@ def _part(L, hmax):  # pragma: no cover - numba
     n = max(1, math.ceil(L / hmax - 1e-9))
     h = L / n
     return n, h, float(max(1, int(QUAD_S / h + 1e-9)))
-
-
-@nb.njit(cache=True)
-def _tp_full(active, ctr, tpbuf):  # pragma: no cover - numba
-    for b in range(active.shape[0]):
-        if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
-            return True  # a turning-point buffer is full: grow it before any plant moves
-    return False
 
 
 class _StepKernels(NamedTuple):
@@ -802,38 +804,7 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                 )  # fmt: skip
         return status
 
-    @nb.njit(cache=True)
-    def step(
-        mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
-    ):  # pragma: no cover - numba
-        if _tp_full(active, ctr, tpbuf):
-            return 2
-        return rows(
-            0, x.shape[0], mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas,
-            cfg, obs, out, sig,
-        )  # fmt: skip
-
-    @nb.njit(cache=True, parallel=True)
-    def step_parallel(
-        mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig,
-        nch,
-    ):  # fmt: skip  # pragma: no cover - numba
-        # nch chunks of whole blocks on the threads; each writes only its own rows, so results
-        # equal the serial ones
-        if _tp_full(active, ctr, tpbuf):
-            return 2
-        B = x.shape[0]
-        nblk = -(-B // _BW)
-        nch = min(nch, nblk)
-        st = np.zeros(nch, dtype=np.int64)
-        for c in nb.prange(nch):
-            lo = (nblk * c // nch) * _BW
-            hi = min((nblk * (c + 1) // nch) * _BW, B)
-            st[c] = rows(
-                lo, hi, mode, act, active, x, p, lanes, dist, tab, acc, tpbuf, ctr, noise, meas,
-                cfg, obs, out, sig,
-            )  # fmt: skip
-        return st.max()
+    step, step_parallel = block_steppers(rows, _BW, sys.modules[__name__], *_DEPS)
 
     @nb.njit
     def rollout(
@@ -872,13 +843,13 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                 return 0, i + 1, total
         return 0, n, total
 
-    for k in (*([ls] if lockstep else []), *stage_loops, block, rows, step, step_parallel):
-        cache_depends_on(k, _ax, _room, _kpis, _kernels)
+    for k in (*([ls] if lockstep else []), *stage_loops, block, rows):
+        cache_depends_on(k, *_DEPS)
     return _StepKernels(step, step_parallel, rollout)
 
 
-for _k in (_room_dyn, _room_post, _part, _tp_full):
-    cache_depends_on(_k, _ax, _room, _kpis, _kernels)
+for _k in (_room_dyn, _room_post, _part):
+    cache_depends_on(_k, *_DEPS)
 
 
 class _RoomEngine(Engine):
@@ -918,12 +889,6 @@ class _RoomEngine(Engine):
         slo, shi = check_range(env, "setback_band_C", cfg.setback_band_C, lo=0.0, hi=40.0)
         go, gu = (check_number(env, "gains_W", v, lo=-5000.0, hi=5000.0) for v in cfg.gains_W)
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
-        bad = [e for e in cfg.rig_effects if str(e).split(":")[0] not in _STEPWISE_RIG_EFFECTS]
-        if bad:
-            raise ConfigError(
-                f"{env}: rig effect(s) {bad} are not available step-wise in environments; "
-                f"available: {list(_STEPWISE_RIG_EFFECTS)}"
-            )
         specimen = None
         if cfg.plant == "rig" and cfg.specimen_seed is not None:
             from thermogym.rigs.axt211 import specimen_spread
@@ -937,6 +902,7 @@ class _RoomEngine(Engine):
             default=lambda: RoomModel(valve=cfg.valve),
             rig="axt211",
             rig_effects=cfg.rig_effects,
+            stepwise_effects=_STEPWISE_RIG_EFFECTS,
             rig_model=lambda base, eff: RoomModel(valve=cfg.valve, effects=eff),
             specimen=specimen,
         )
@@ -973,14 +939,6 @@ class _RoomEngine(Engine):
         self.p = np.zeros((B, model.full_theta(plant.theta).shape[1]))
         self.lanes = np.zeros((_room._N_ROOM_LANE, B))  # lockstep kernel's lane table, from p
         self.dist = np.zeros((B, 3))
-
-    @property
-    def dt(self) -> float:
-        return self._dt
-
-    @property
-    def horizon(self) -> int:
-        return self._horizon
 
     def action_space(self) -> spaces.Space[Any]:
         if self.cfg.action_mode == "onoff":

@@ -85,6 +85,7 @@ from __future__ import annotations
 
 import functools
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -109,7 +110,13 @@ from thermogym.envs._base import (
     parse_weights,
     steps_of,
 )
-from thermogym.envs._kernels import cache_depends_on, meas_array, measure, tp_push
+from thermogym.envs._kernels import (
+    block_steppers,
+    cache_depends_on,
+    meas_array,
+    measure,
+    tp_push,
+)
 from thermogym.envs._plant import ParamsLike, resolve_plant
 from thermogym.envs.kpis import miner_damage, tp_finish, tp_update
 from thermogym.errors import ConfigError
@@ -355,6 +362,9 @@ def _valve_post(
 # compile-time constant, so that LLVM sees the rows as disjoint and vectorises without
 # run-time alias checks (it refuses for separate arrays: too many checks).
 
+#: Modules whose sources the compiled kernels of this module contain.
+_DEPS = (_ax, _kpis, _kernels)
+
 _BW = 64  # lanes of a full block: its 34 rows x 64 lanes x 8 B = 17 KiB stay in L1 cache
 _NQ = 20  # lane-table rows copied into a block (all but the plain flag)
 (_R_TP, _R_TG, _R_XP, _R_XV, _R_NON, _R_NTOT, _R_HON, _R_HOFF, _R_MQ, _R_CNT, _R_E, _R_P0,
@@ -411,14 +421,6 @@ def _lockstep(wb, W, nmax):  # pragma: no cover - numba
 @nb.njit(cache=True, error_model="numpy")
 def _lockstep_bw(wb, nmax):  # pragma: no cover - numba
     _lockstep(wb, _BW, nmax)
-
-
-@nb.njit(cache=True)
-def _tp_full(active, ctr, tpbuf):  # pragma: no cover - numba
-    for b in range(active.shape[0]):
-        if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
-            return True  # a turning-point buffer is full: grow it before any plant moves
-    return False
 
 
 class _StepKernels(NamedTuple):
@@ -536,46 +538,15 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
             )  # fmt: skip
         return status
 
-    @nb.njit(cache=True)
-    def step(
-        mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
-    ):  # pragma: no cover - numba
-        if _tp_full(active, ctr, tpbuf):
-            return 2
-        return rows(
-            0, x.shape[0], mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas,
-            cfg, obs, out, sig,
-        )  # fmt: skip
+    step, step_parallel = block_steppers(rows, _BW, sys.modules[__name__], *_DEPS)
 
-    @nb.njit(cache=True, parallel=True)
-    def step_parallel(
-        mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig,
-        nch,
-    ):  # fmt: skip  # pragma: no cover - numba
-        # nch chunks of whole blocks on the threads; each writes only its own rows, so results
-        # equal the serial ones
-        if _tp_full(active, ctr, tpbuf):
-            return 2
-        B = x.shape[0]
-        nblk = -(-B // _BW)
-        nch = min(nch, nblk)
-        st = np.zeros(nch, dtype=np.int64)
-        for c in nb.prange(nch):
-            lo = (nblk * c // nch) * _BW
-            hi = min((nblk * (c + 1) // nch) * _BW, B)
-            st[c] = rows(
-                lo, hi, mode, act, active, x, p, lanes, dist, sp, acc, tpbuf, ctr, noise, meas,
-                cfg, obs, out, sig,
-            )  # fmt: skip
-        return st.max()
-
-    for k in (block, rows, step, step_parallel):
-        cache_depends_on(k, _ax, _kpis, _kernels)
+    for k in (block, rows):
+        cache_depends_on(k, *_DEPS)
     return _StepKernels(step, step_parallel)
 
 
-for _k in (_dyn_scalar, _valve_post, _quad_point, _lockstep_bw, _tp_full):
-    cache_depends_on(_k, _ax, _kpis, _kernels)
+for _k in (_dyn_scalar, _valve_post, _quad_point, _lockstep_bw):
+    cache_depends_on(_k, *_DEPS)
 
 
 class _ValveEngine(Engine):
@@ -603,12 +574,6 @@ class _ValveEngine(Engine):
         self.supply = check_range(env, "supply_V", cfg.supply_V, lo=0.0, hi=40.0)
         self.ambient = check_range(env, "ambient_C", cfg.ambient_C, lo=-30.0, hi=80.0)
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
-        bad = [e for e in cfg.rig_effects if str(e).split(":")[0] not in _STEPWISE_RIG_EFFECTS]
-        if bad:
-            raise ConfigError(
-                f"{env}: rig effect(s) {bad} are not available step-wise in environments; "
-                f"available: {list(_STEPWISE_RIG_EFFECTS)}"
-            )
         specimen = None
         if cfg.plant == "rig" and cfg.specimen_seed is not None:
             from thermogym.rigs.axt211 import specimen_spread
@@ -622,22 +587,14 @@ class _ValveEngine(Engine):
             default=AXT211,
             rig="axt211",
             rig_effects=cfg.rig_effects,
+            stepwise_effects=_STEPWISE_RIG_EFFECTS,
             specimen=specimen,
         )
         super().__init__(B, plant, _NACC, tp_capacity=256)
         self._setpoint(cfg)
         sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)
         lo, hi = self.obs_bounds()
-        off = np.zeros(len(lo))
-        drift = np.zeros(len(lo))
-        for eff in plant.rig_effects:
-            sig = eff.params.get("signal")
-            if eff.name in ("sensor_offset", "sensor_drift") and sig in _CH:
-                j = _CH.index(sig)
-                if eff.name == "sensor_offset":
-                    off[j] = float(eff.params.get("offset", 1.0))
-                else:
-                    drift[j] = float(eff.params.get("rate", 0.5))
+        off, drift = plant.sensor_errors(_CH, len(lo))
         self.meas = meas_array(sens, lo, hi, off, drift)
         h_T = check_number(env, "cycle_hysteresis_K", cfg.cycle_hysteresis_K, lo=0.0)
         h_x = check_number(env, "reversal_hysteresis_mm", cfg.reversal_hysteresis_mm, lo=0.0)
@@ -694,14 +651,6 @@ class _ValveEngine(Engine):
                 raise ConfigError(f"{env}: setpoint values must be finite, within [0, 7] mm")
             self.sp_fixed = a[: self._horizon].copy()
             self.hold, self.n_seg = 1, self._horizon
-
-    @property
-    def dt(self) -> float:
-        return self._dt
-
-    @property
-    def horizon(self) -> int:
-        return self._horizon
 
     def action_space(self) -> spaces.Space[Any]:
         if self.cfg.action_mode == "onoff":

@@ -72,6 +72,7 @@ Version History
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -94,7 +95,7 @@ from thermogym.envs._base import (
     parse_weights,
     steps_of,
 )
-from thermogym.envs._kernels import cache_depends_on, meas_array, measure
+from thermogym.envs._kernels import cache_depends_on, meas_array, measure, plant_loops
 from thermogym.envs._network import LTIEngine, lti_output, lti_update
 from thermogym.envs._plant import ParamsLike, resolve_plant
 from thermogym.envs.profiles import ambient_day
@@ -260,117 +261,8 @@ def _spindle_row(
     return 0
 
 
-@nb.njit(cache=True)
-def _spindle_kernel(
-    mode,
-    act,
-    active,
-    linear,
-    x,
-    Ad,
-    Bd,
-    Hm,
-    Dm,
-    h0,
-    amb,
-    acc,
-    ctr,
-    noise,
-    meas,
-    cfg,
-    obs,
-    out,
-    sig,
-    scratch,
-):  # pragma: no cover - numba
-    status = 0
-    for b in range(x.shape[0]):
-        if active[b]:
-            status = max(
-                status,
-                _spindle_row(
-                    b,
-                    mode,
-                    act,
-                    linear,
-                    x,
-                    Ad,
-                    Bd,
-                    Hm,
-                    Dm,
-                    h0,
-                    amb,
-                    acc,
-                    ctr,
-                    noise,
-                    meas,
-                    cfg,
-                    obs,
-                    out,
-                    sig,
-                    scratch,
-                ),
-            )
-    return status
-
-
-@nb.njit(cache=True, parallel=True)
-def _spindle_parallel(
-    mode,
-    act,
-    active,
-    linear,
-    x,
-    Ad,
-    Bd,
-    Hm,
-    Dm,
-    h0,
-    amb,
-    acc,
-    ctr,
-    noise,
-    meas,
-    cfg,
-    obs,
-    out,
-    sig,
-    scratch,
-):  # pragma: no cover - numba
-    # one plant per thread; each writes only its own rows, so results equal the serial ones
-    for i in nb.prange(x.shape[0]):
-        b = np.int64(i)  # the prange index is unsigned; keep index arithmetic signed
-        if active[b]:
-            _spindle_row(
-                b,
-                mode,
-                act,
-                linear,
-                x,
-                Ad,
-                Bd,
-                Hm,
-                Dm,
-                h0,
-                amb,
-                acc,
-                ctr,
-                noise,
-                meas,
-                cfg,
-                obs,
-                out,
-                sig,
-                scratch,
-            )
-    for b in range(x.shape[0]):
-        if active[b] and ctr[b, 3] != 0:
-            return 1
-    return 0
-
-
-for _k in (_spindle_row, _spindle_kernel, _spindle_parallel):
-    cache_depends_on(_k, _nw, _kernels)
+cache_depends_on(_spindle_row, _nw, _kernels)
+_spindle_kernel, _spindle_parallel = plant_loops(_spindle_row, sys.modules[__name__], _nw, _kernels)
 
 
 class _SpindleEngine(LTIEngine):
@@ -402,12 +294,6 @@ class _SpindleEngine(LTIEngine):
         self.clock = check_number(env, "start_clock_h", cfg.start_clock_h, lo=0.0, hi=24.0)
         self.n0 = check_number(env, "initial_speed_rpm", cfg.initial_speed_rpm, lo=0.0, hi=1e5)
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
-        bad = [e for e in cfg.rig_effects if str(e).split(":")[0] not in _STEPWISE_RIG_EFFECTS]
-        if bad:
-            raise ConfigError(
-                f"{env}: rig effect(s) {bad} are not available step-wise in environments; "
-                f"available: {list(_STEPWISE_RIG_EFFECTS)}"
-            )
         plant = resolve_plant(
             env,
             params=cfg.params,
@@ -416,22 +302,12 @@ class _SpindleEngine(LTIEngine):
             default=SpindleModel,
             rig="spindle",
             rig_effects=cfg.rig_effects,
+            stepwise_effects=_STEPWISE_RIG_EFFECTS,
         )
         super().__init__(B, plant, OUTPUTS, ("speed", "T_amb"), T, _NACC)
         sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)
         lo, hi = self.obs_bounds()
-        off = np.zeros(len(lo))
-        drift = np.zeros(len(lo))
-        for eff in plant.rig_effects:
-            sig = eff.params.get(
-                "signal", plant.rig.effect_defaults.get(eff.name, {}).get("signal")
-            )
-            if eff.name in ("sensor_offset", "sensor_drift") and sig in _CH:
-                s = {**plant.rig.effect_defaults.get(eff.name, {}), **eff.params}
-                if eff.name == "sensor_offset":
-                    off[_CH.index(sig)] = float(s.get("offset", 1.0))
-                else:
-                    drift[_CH.index(sig)] = float(s.get("rate", 0.5))
+        off, drift = plant.sensor_errors(_CH, len(lo))
         self.meas = meas_array(sens, lo, hi, off, drift)
         self.cfgv = np.array(
             [
@@ -447,14 +323,6 @@ class _SpindleEngine(LTIEngine):
             ]
         )
         self.amb = np.zeros((B, self._horizon + 1))
-
-    @property
-    def dt(self) -> float:
-        return self._dt
-
-    @property
-    def horizon(self) -> int:
-        return self._horizon
 
     def action_space(self) -> spaces.Space[Any]:
         return spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
@@ -485,7 +353,7 @@ class _SpindleEngine(LTIEngine):
         kernel = _spindle_parallel if self.parallel and self.B > 1 else _spindle_kernel
         return int(
             kernel(
-                mode, self.act, self.active, self.linear, self.x, self.Ad, self.Bd, self.Hm,
+                self.active, mode, self.act, self.linear, self.x, self.Ad, self.Bd, self.Hm,
                 self.Dm, self.h0, self.amb, self.acc, self.ctr, self.noise, self.meas, self.cfgv,
                 self.obs, self.out, self.sig, self.scratch,
             )

@@ -62,6 +62,7 @@ Version History
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -84,10 +85,9 @@ from thermogym.envs._base import (
     parse_weights,
     steps_of,
 )
-from thermogym.envs._kernels import cache_depends_on, meas_array, measure
+from thermogym.envs._kernels import cache_depends_on, meas_array, measure, plant_loops
 from thermogym.envs._network import LTIEngine, lti_output, lti_update
 from thermogym.envs._plant import ParamsLike, resolve_plant
-from thermogym.errors import ConfigError
 from thermogym.models.strut import STRUT_OUTPUTS, StrutModel
 
 __all__ = ["DEFAULT_WEIGHTS", "StrutConfig", "StrutThermalEnv", "StrutThermalVectorEnv"]
@@ -240,117 +240,8 @@ def _strut_row(
     return 0
 
 
-@nb.njit(cache=True)
-def _strut_kernel(
-    mode,
-    act,
-    active,
-    linear,
-    x,
-    Ad,
-    Bd,
-    Hm,
-    Dm,
-    h0,
-    air,
-    acc,
-    ctr,
-    noise,
-    meas,
-    cfg,
-    obs,
-    out,
-    sig,
-    scratch,
-):  # pragma: no cover - numba
-    status = 0
-    for b in range(x.shape[0]):
-        if active[b]:
-            status = max(
-                status,
-                _strut_row(
-                    b,
-                    mode,
-                    act,
-                    linear,
-                    x,
-                    Ad,
-                    Bd,
-                    Hm,
-                    Dm,
-                    h0,
-                    air,
-                    acc,
-                    ctr,
-                    noise,
-                    meas,
-                    cfg,
-                    obs,
-                    out,
-                    sig,
-                    scratch,
-                ),
-            )
-    return status
-
-
-@nb.njit(cache=True, parallel=True)
-def _strut_parallel(
-    mode,
-    act,
-    active,
-    linear,
-    x,
-    Ad,
-    Bd,
-    Hm,
-    Dm,
-    h0,
-    air,
-    acc,
-    ctr,
-    noise,
-    meas,
-    cfg,
-    obs,
-    out,
-    sig,
-    scratch,
-):  # pragma: no cover - numba
-    # one plant per thread; each writes only its own rows, so results equal the serial ones
-    for i in nb.prange(x.shape[0]):
-        b = np.int64(i)  # the prange index is unsigned; keep index arithmetic signed
-        if active[b]:
-            _strut_row(
-                b,
-                mode,
-                act,
-                linear,
-                x,
-                Ad,
-                Bd,
-                Hm,
-                Dm,
-                h0,
-                air,
-                acc,
-                ctr,
-                noise,
-                meas,
-                cfg,
-                obs,
-                out,
-                sig,
-                scratch,
-            )
-    for b in range(x.shape[0]):
-        if active[b] and ctr[b, 3] != 0:
-            return 1
-    return 0
-
-
-for _k in (_strut_row, _strut_kernel, _strut_parallel):
-    cache_depends_on(_k, _nw, _kernels)
+cache_depends_on(_strut_row, _nw, _kernels)
+_strut_kernel, _strut_parallel = plant_loops(_strut_row, sys.modules[__name__], _nw, _kernels)
 
 
 class _StrutEngine(LTIEngine):
@@ -379,12 +270,6 @@ class _StrutEngine(LTIEngine):
         self.air = check_range(env, "air_C", cfg.air_C, lo=-20.0, hi=60.0)
         self.swing = check_number(env, "air_swing_K", cfg.air_swing_K, lo=0.0, hi=20.0)
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
-        bad = [e for e in cfg.rig_effects if str(e).split(":")[0] not in _STEPWISE_RIG_EFFECTS]
-        if bad:
-            raise ConfigError(
-                f"{env}: rig effect(s) {bad} are not available step-wise in environments; "
-                f"available: {list(_STEPWISE_RIG_EFFECTS)}"
-            )
         plant = resolve_plant(
             env,
             params=cfg.params,
@@ -393,20 +278,12 @@ class _StrutEngine(LTIEngine):
             default=StrutModel,
             rig="strut",
             rig_effects=cfg.rig_effects,
+            stepwise_effects=_STEPWISE_RIG_EFFECTS,
         )
         super().__init__(B, plant, OUTPUTS, ("feed_rate", "T_air"), T, _NACC)
         sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)
         lo, hi = self.obs_bounds()
-        off = np.zeros(len(lo))
-        drift = np.zeros(len(lo))
-        for eff in plant.rig_effects:
-            s = {**plant.rig.effect_defaults.get(eff.name, {}), **eff.params}
-            if eff.name in ("sensor_offset", "sensor_drift") and s.get("signal") in _CH:
-                j = _CH.index(s["signal"])
-                if eff.name == "sensor_offset":
-                    off[j] = float(s.get("offset", 1.0))
-                else:
-                    drift[j] = float(s.get("rate", 0.5))
+        off, drift = plant.sensor_errors(_CH, len(lo))
         self.meas = meas_array(sens, lo, hi, off, drift)
         self.cfgv = np.array(
             [
@@ -425,14 +302,6 @@ class _StrutEngine(LTIEngine):
         self._h0_dL = np.zeros(B)
         self._iref = self.model.param_index("T_ref")
         self._L_total_um = float(self.model._L_total_um)  # type: ignore[attr-defined]
-
-    @property
-    def dt(self) -> float:
-        return self._dt
-
-    @property
-    def horizon(self) -> int:
-        return self._horizon
 
     def action_space(self) -> spaces.Space[Any]:
         return spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
@@ -477,7 +346,7 @@ class _StrutEngine(LTIEngine):
         kernel = _strut_parallel if self.parallel and self.B > 1 else _strut_kernel
         return int(
             kernel(
-                mode, self.act, self.active, self.linear, self.x, self.Ad, self.Bd, self.Hm,
+                self.active, mode, self.act, self.linear, self.x, self.Ad, self.Bd, self.Hm,
                 self.Dm, self.h0, self.air_tab, self.acc, self.ctr, self.noise, self.meas,
                 self.cfgv, self.obs, self.out, self.sig, self.scratch,
             )

@@ -78,6 +78,7 @@ Version History
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
@@ -102,7 +103,7 @@ from thermogym.envs._base import (
     parse_weights,
     steps_of,
 )
-from thermogym.envs._kernels import cache_depends_on, meas_array, measure
+from thermogym.envs._kernels import cache_depends_on, meas_array, measure, plant_loops
 from thermogym.envs._plant import ParamsLike, resolve_plant
 from thermogym.errors import ConfigError
 from thermogym.models import tclab as _tc
@@ -237,37 +238,8 @@ def _tclab_row(
     return 0
 
 
-@nb.njit(cache=True)
-def _tclab_kernel(
-    mode, act, active, x, p, amb, sp, acc, ctr, noise, meas, cfg, obs, out, sig
-):  # pragma: no cover - numba
-    status = 0
-    for b in range(x.shape[0]):
-        if active[b]:
-            status = max(
-                status,
-                _tclab_row(b, mode, act, x, p, amb, sp, acc, ctr, noise, meas, cfg, obs, out, sig),
-            )
-    return status
-
-
-@nb.njit(cache=True, parallel=True)
-def _tclab_parallel(
-    mode, act, active, x, p, amb, sp, acc, ctr, noise, meas, cfg, obs, out, sig
-):  # pragma: no cover - numba
-    # one plant per thread; each writes only its own rows, so results equal the serial ones
-    for i in nb.prange(x.shape[0]):
-        b = np.int64(i)  # the prange index is unsigned; keep index arithmetic signed
-        if active[b]:
-            _tclab_row(b, mode, act, x, p, amb, sp, acc, ctr, noise, meas, cfg, obs, out, sig)
-    for b in range(x.shape[0]):
-        if active[b] and ctr[b, 3] != 0:
-            return 1
-    return 0
-
-
-for _k in (_tclab_row, _tclab_kernel, _tclab_parallel):
-    cache_depends_on(_k, _tc, _kernels)
+cache_depends_on(_tclab_row, _tc, _kernels)
+_tclab_kernel, _tclab_parallel = plant_loops(_tclab_row, sys.modules[__name__], _tc, _kernels)
 
 
 class _TCLabEngine(Engine):
@@ -349,14 +321,6 @@ class _TCLabEngine(Engine):
             raise ConfigError(f"{env}: setpoint values must be finite, within [0, 100] °C")
         self.sp_fixed = a.copy()
 
-    @property
-    def dt(self) -> float:
-        return self._dt
-
-    @property
-    def horizon(self) -> int:
-        return self._horizon
-
     def n_act(self) -> int:
         return 2
 
@@ -385,7 +349,7 @@ class _TCLabEngine(Engine):
         kernel = _tclab_parallel if self.parallel and self.B > 1 else _tclab_kernel
         return int(
             kernel(
-                mode, self.act, self.active, self.x, self.p, self.amb, self.sp, self.acc,
+                self.active, mode, self.act, self.x, self.p, self.amb, self.sp, self.acc,
                 self.ctr, self.noise, self.meas, self.cfgv, self.obs, self.out, self.sig,
             )
         )  # fmt: skip
