@@ -138,6 +138,12 @@ def test_bad_augmentations_are_refused_by_name():
         AugmentedModel("foptd", _BASE, [{"effect": "sensor_lag", "signal": "nope"}])
     with pytest.raises(ConfigError, match="augmentations are"):
         AugmentedModel("foptd", _BASE, [{"effect": "phase_change", "signal": "y"}])
+    with pytest.raises(ConfigError, match="input_nonlinearity u_ref is 'fast'; expected a number"):
+        AugmentedModel("foptd", _BASE, [{"effect": "input_nonlinearity", "signal": "u",
+                                          "u_ref": "fast"}])  # fmt: skip
+    with pytest.raises(ConfigError, match=r"nonlinear_heat_transfer dT_ref is -1\.0"):
+        AugmentedModel("foptd", _BASE, [{"effect": "nonlinear_heat_transfer", "signal": "y",
+                                          "reference": "Ta", "dT_ref": -1.0}])  # fmt: skip
     with pytest.raises(ConfigError, match="appears twice"):
         AugmentedModel(
             "foptd",

@@ -510,6 +510,9 @@ def test_rig_plant_differs_from_the_model_only_through_its_physics():
     ).unwrapped  # fmt: skip
     obs, _ = e.reset(seed=0)
     assert obs[1] - e.true_outputs()["T_G"] == pytest.approx(1.5, abs=0.02)  # 0.01 K steps
+    with pytest.raises(ConfigError, match="offset is 'abc'; expected a number"):
+        gym.make("thermogym/AXT211Valve-v0", plant="rig",
+                 rig_effects=["sensor_offset:signal=T_G,offset=abc"])  # fmt: skip
 
 
 def test_network_rig_with_nonlinear_physics():

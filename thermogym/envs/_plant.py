@@ -85,10 +85,14 @@ class Plant:
             if s.get("signal") not in channels:
                 continue
             j = list(channels).index(s["signal"])
-            if eff.name == "sensor_offset":
-                offset[j] = float(s["offset"])
-            else:
-                drift[j] = float(s["rate"])
+            key = "offset" if eff.name == "sensor_offset" else "rate"
+            try:
+                v = float(s[key])
+            except (KeyError, TypeError, ValueError):
+                raise ConfigError(
+                    f"rig effect {eff.name}: {key} is {s.get(key)!r}; expected a number"
+                ) from None
+            (offset if key == "offset" else drift)[j] = v
         return offset, drift
 
 

@@ -125,6 +125,18 @@ def _bounds(spec: Mapping[str, Any], key: str, default: tuple[float, float]) -> 
     return lo, hi
 
 
+def _positive(spec: Mapping[str, Any], key: str, default: float, effect: str) -> float:
+    # a positive finite setting of an augmentation, with an error naming it
+    v = spec.get(key, default)
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        x = math.nan
+    if not (math.isfinite(x) and x > 0):
+        raise ConfigError(f"{effect} {key} is {v!r}; expected a number > 0")
+    return x
+
+
 @nb.njit(cache=True)
 def _play(y: NDArray[np.float64], c: NDArray[np.float64], prev0: NDArray[np.float64]) -> None:
     # backlash (play) operator of half-width c, in place, one row per batch member
@@ -343,9 +355,7 @@ class _InputPower(_Aug):
 
     def __init__(self, spec, base):
         super().__init__(spec, base)
-        self.u_ref = float(spec.get("u_ref", 1.0))
-        if not (math.isfinite(self.u_ref) and self.u_ref > 0):
-            raise ConfigError(f"input_nonlinearity u_ref is {self.u_ref!r}; expected > 0")
+        self.u_ref = _positive(spec, "u_ref", 1.0, self.effect)
         lo, hi = _bounds(spec, "alpha", (0.2, 3.0))
         self.params = [
             _param(
@@ -441,9 +451,7 @@ class _Saturating(_Aug):
     def __init__(self, spec, base):
         super().__init__(spec, base)
         self.check_reference()
-        self.dT_ref = float(spec.get("dT_ref", 10.0))
-        if not (math.isfinite(self.dT_ref) and self.dT_ref > 0):
-            raise ConfigError(f"nonlinear_heat_transfer dT_ref is {self.dT_ref!r}; expected > 0")
+        self.dT_ref = _positive(spec, "dT_ref", 10.0, self.effect)
         lo, hi = _bounds(spec, "gamma", (-0.2, 5.0))
         self.params = [
             _param(
@@ -488,11 +496,7 @@ class _ForcedLoss(_Aug):
                 f"they are {self.exo}"
             )
         self.src = self.exo.index(src)
-        self.u_ref = float(spec.get("u_ref", 1.0))
-        if not (math.isfinite(self.u_ref) and self.u_ref > 0):
-            raise ConfigError(
-                f"input_dependent_heat_transfer u_ref is {self.u_ref!r}; expected > 0"
-            )
+        self.u_ref = _positive(spec, "u_ref", 1.0, self.effect)
         lo, hi = _bounds(spec, "beta", (-0.5, 5.0))
         self.params = [
             _param(

@@ -186,16 +186,17 @@ _DT_SPAN = 60.0
 class LossNetwork(SwitchedNetwork):
     """A network plant with ``nonlinear_heat_transfer`` only, on the plant's own RK4 kernel.
 
-    The loss ``g (1 + γ |Δ|/ΔT_ref) Δ`` of each node to the air depends on the
-    state, so the network is integrated by the plant's fixed-step RK4 kernel
-    (same equations, same code). Only the number of sub-steps differs: the
-    plant bounds the spectral radius for *forced convection* at the largest
-    input (``1 + 5 u_max/u_ref``, six times the sub-steps on a spindle at
-    8000 rpm) even when no forced convection is switched on, while the loss
-    nonlinearity raises the local stiffness ``∂(gΔ(1+γ|Δ|/ΔT_ref))/∂Δ`` by
-    ``1 + 2γ|Δ|/ΔT_ref`` only. Sub-steps here keep ``h ρ (1 + 2 γ⁺
-    ΔT_span/ΔT_ref) ≤ 1`` with ``ΔT_span`` = 60 K (RK4 is stable up to
-    ``h|λ|`` = 2.78, so the rule has margin beyond that rise).
+    The loss ``g Δ (1 + γ (|Δ|/ΔT_ref)^(1/3)) / (1 + γ)`` of each node to the
+    air (the plant's ``_rhs``) depends on the state, so the network is
+    integrated by the plant's fixed-step RK4 kernel (same equations, same
+    code). Only the number of sub-steps differs: the plant bounds the spectral
+    radius for *forced convection* at the largest input (``1 + 5 u_max/u_ref``,
+    six times the sub-steps on a spindle at 8000 rpm) even when no forced
+    convection is switched on, while the loss nonlinearity raises the local
+    stiffness only by ``(1 + 4/3 γ (|Δ|/ΔT_ref)^(1/3)) / (1 + γ)``. Sub-steps
+    here keep ``h ρ (1 + 2 γ⁺ ΔT_span/ΔT_ref) ≤ 1`` with ``ΔT_span`` = 60 K, a
+    bound with wide margin over that factor (and RK4 is stable up to
+    ``h|λ|`` = 2.78).
 
     Parameters
     ----------
