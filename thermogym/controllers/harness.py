@@ -119,9 +119,13 @@ class EpisodeSpec:
     scenario_def: Scenario | None = None
     params: str | None = None
 
+    def scenario_obj(self) -> Scenario:
+        """The episode's scenario (its own definition, else the registered one)."""
+        return get_scenario(self.scenario_def or self.scenario)
+
     def env_kwargs(self, env_name: str) -> dict[str, Any]:
         """Keyword arguments of ``gymnasium.make`` for this episode."""
-        scen = get_scenario(self.scenario_def or self.scenario)
+        scen = self.scenario_obj()
         kw = scen.kwargs(env_name, self.seed, self.plant)
         if self.params is not None and scen.plant_for(self.plant) == "model":
             kw["params"] = self.params
@@ -187,7 +191,7 @@ def run_episode(spec: EpisodeSpec) -> dict[str, Any]:
         torch.set_num_threads(1)
     except ImportError:
         pass
-    scen = get_scenario(spec.scenario_def or spec.scenario)
+    scen = spec.scenario_obj()
     kw = spec.env_kwargs(_env_name(spec.env_id))
     t0 = time.perf_counter()
     env = gym.make(spec.env_id, record=spec.record, **kw)
