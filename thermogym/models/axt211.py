@@ -395,6 +395,9 @@ def _outputs(
 def _make_simulate_kernel(parallel: bool):
     @nb.njit(cache=True, parallel=parallel)
     def kernel(theta, u, x0, h, n, y, xs, keep):
+        # reading `parallel` makes it a closure cell: numba keys its on-disk cache on the
+        # cells, so the serial and the threaded kernel get separate cache entries
+        _variant = parallel
         B, T = y.shape[0], y.shape[1]
         shared_u = u.shape[0] == 1
         for b in nb.prange(B):
