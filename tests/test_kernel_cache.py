@@ -8,14 +8,14 @@ import subprocess
 import sys
 import textwrap
 
-from thermogym.envs._kernels import _cell_key, _StableIndexKey
+from thermogym._jitcache import _cell_key, _StableIndexKey
 
 MODULE = textwrap.dedent(
     """
     import json, sys
     import numba as nb
     import numpy as np
-    from thermogym.envs._kernels import cache_depends_on
+    from thermogym._jitcache import cache_depends_on
 
     @nb.njit(cache=True)
     def inner(x, k):

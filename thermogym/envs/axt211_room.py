@@ -132,8 +132,10 @@ from thermogym.envs._plant import ParamsLike, resolve_plant
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update
 from thermogym.envs.profiles import synthetic_weather
 from thermogym.errors import ConfigError
+from thermogym.models import _vmath
 from thermogym.models import axt211 as _ax
 from thermogym.models import room as _room
+from thermogym.models._vmath import vpow as _vpow
 from thermogym.models.room import RoomModel
 from thermogym.recording import Recording
 
@@ -226,7 +228,8 @@ class RoomConfig:
 # acc layout
 _A_E, _A_Q, _A_SW, _A_TRAV, _A_ABOVE, _A_DISC, _A_ON, _A_UPREV, _A_QLAST = range(9)
 _A_TPT, _A_TPX = 9, 13
-_NACC = 17
+_A_TOUT, _A_QINT = 17, 18  # T_out and Q_int held over the next period (set by _room_post)
+_NACC = 19
 _OBS = (
     "T_zone", "T_set", "T_out", "occupied", "band_low", "band_high", "hour_sin", "hour_cos",
     "u_prev",
@@ -246,15 +249,17 @@ def _table(tab, b, col, base, t):  # pragma: no cover - numba
     i = math.floor(H)
     f = H - i
     j = int(i - base) % n
-    return tab[bb, col, j] * (1.0 - f) + tab[bb, col, (j + 1) % n] * f
+    j1 = j + 1 if j + 1 < n else 0
+    return tab[bb, col, j] * (1.0 - f) + tab[bb, col, j1] * f
 
 
 @nb.njit(cache=True, inline="always")
-def _occupied(t, cfg):  # pragma: no cover - numba
+def _clock(t, cfg):  # pragma: no cover - numba
+    # occupied at time t [s], and the clock time [h]
     day = math.floor(t / 86400.0)
     hour = (t - 86400.0 * day) / 3600.0
     wd = day % 7
-    return wd < cfg[_OCCD] and cfg[_OCC0] <= hour < cfg[_OCC1]
+    return wd < cfg[_OCCD] and cfg[_OCC0] <= hour < cfg[_OCC1], hour
 
 
 #: Longest interval of the trapezoidal energy integration [s] (a few RK4 steps).
@@ -305,6 +310,9 @@ _NQ = _NQA + _NQR
 _R_K = _NQ + 29  # 6 rows: derivatives of the last stage (all states but x_V)
 _R_S = _R_K + 6  # 6 rows: their weighted RK4 sum so far
 _NROW = _R_S + 6
+_R_PLAIN = _NROW  # 1 where the plant has no actuator effect (the lockstep applies)
+_NROWB = _NROW + 1  # rows of a block array: the engine keeps one per block of plants, so the
+# parameter rows (0.._NQ-1, written when a parameter set is installed) are not copied per step
 
 
 @nb.njit(cache=True, inline="always")
@@ -323,14 +331,9 @@ def _room_action(b, act, cfg, ctr):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, inline="always")
-def _room_inputs(b, dist, tab, ctr, cfg):  # pragma: no cover - numba
-    # outdoor temperature and gains held over plant b's next period
-    t = dist[b, 1] + ctr[b, 0] * cfg[_T]
-    base = dist[b, 2]
-    Tout = _table(tab, b, 0, base, t)
-    occ = _occupied(t, cfg)
-    Qint = (cfg[_GO] if occ else cfg[_GU]) + _table(tab, b, 1, base, t)
-    return Tout, Qint
+def _room_inputs(b, acc):  # pragma: no cover - numba
+    # outdoor temperature and gains held over plant b's next period (from _room_post)
+    return acc[b, _A_TOUT], acc[b, _A_QINT]
 
 
 @nb.njit(cache=True)
@@ -370,6 +373,7 @@ def _room_post(
     r = 0.0
     t = dist[b, 1] + k * T
     if mode == 1:
+        occ, hour = _clock(t, cfg)
         ntp = tp_push(st_T, xb[0], cfg[_HT], tpbuf[b], ntp)
         tp_update(st_x, xb[3], cfg[_HX])
         acc[b, _A_QLAST] = _room._emission(xb[4], xb[5], p[b], _room._inv_ref(p[b]))
@@ -379,9 +383,9 @@ def _room_post(
         TP = xb[0]
         Tz = xb[5]
         t1 = t + T
-        occ1 = _occupied(t1, cfg)
+        occ, hour = _clock(t1, cfg)
         dev = 0.0
-        if occ1:
+        if occ:
             dev = max(cfg[_BLO] - Tz, Tz - cfg[_BHI], 0.0)
         D = dev * T / 3600.0
         Pm = E / T
@@ -407,8 +411,11 @@ def _room_post(
     cur = ctr[b, 1]
     z = noise[b, cur]
     ctr[b, 1] = cur + 1
-    occ = _occupied(t, cfg)
+    # the inputs held over the next period (read by the next step's dynamics)
     Tout = _table(tab, b, 0, base, t)
+    Qint = (cfg[_GO] if occ else cfg[_GU]) + _table(tab, b, 1, base, t)
+    acc[b, _A_TOUT] = Tout
+    acc[b, _A_QINT] = Qint
     t_h = k * T / 3600.0
     obs[b, 0] = measure(xb[5], meas, 0, z[0], t_h)
     obs[b, 1] = cfg[_SPO] if occ else cfg[_SPU]
@@ -416,7 +423,6 @@ def _room_post(
     obs[b, 3] = 1.0 if occ else 0.0
     obs[b, 4] = cfg[_BLO] if occ else cfg[_SLO]
     obs[b, 5] = cfg[_BHI] if occ else cfg[_SHI]
-    hour = (t % 86400.0) / 3600.0
     obs[b, 6] = math.sin(2.0 * math.pi * hour / 24.0)
     obs[b, 7] = math.cos(2.0 * math.pi * hour / 24.0)
     if cfg[_PREV] > 0.0:
@@ -433,7 +439,7 @@ def _room_post(
     sig[b, 9] = Pm
     sig[b, 10] = d
     sig[b, 11] = obs[b, 3]
-    sig[b, 12] = (cfg[_GO] if occ else cfg[_GU]) + _table(tab, b, 1, base, t)
+    sig[b, 12] = Qint
     sig[b, 13] = r
 
 
@@ -474,14 +480,13 @@ def _stage_base(wb, W, i, xP, xV0, Tr, Ta, kind):  # pragma: no cover - numba
 
 @nb.njit(cache=True, inline="always")
 def _powers(wb, W, kind):  # pragma: no cover - numba
-    # libm's pow, lane by lane, in a loop of its own: called inside the vectorised stage
-    # loop it would make the compiler save and restore every vector register around each
-    # call (measured 90 ns instead of 55 ns per lane and RK4 step)
+    # the power laws of a stage, in a loop of their own (vpow: vectorises, as the scalar
+    # kernel's)
     for i in range(W):
-        wb[_R_PW * W + i] = wb[_R_BASE * W + i] ** wb[(_NQA + 9) * W + i]  # ^n_rad
+        wb[_R_PW * W + i] = _vpow(wb[_R_BASE * W + i], wb[(_NQA + 9) * W + i])  # ^n_rad
     if kind != 0:
         for i in range(W):
-            wb[_R_PWV * W + i] = wb[(_NQA + 6) * W + i] ** wb[_R_EXPV * W + i]  # R_v^(h−1)
+            wb[_R_PWV * W + i] = _vpow(wb[(_NQA + 6) * W + i], wb[_R_EXPV * W + i])  # R_v^(h−1)
 
 
 @nb.njit(cache=True, inline="always")
@@ -649,7 +654,7 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
 
 
 #: Modules whose sources the compiled kernels of this module contain.
-_DEPS = (_ax, _room, _kpis, _kernels)
+_DEPS = (_ax, _room, _vmath, _kpis, _kernels)
 
 _BW = 32  # lanes of a full block (77 rows x 32 lanes x 8 B = 19 KiB: L1 cache)
 
@@ -683,9 +688,11 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
 
     @nb.njit(cache=True)
     def block(
-        b0, W, wb, act, active, x, p, lanes, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0, ok, lo
+        b0, W, wb, act, active, x, p, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0, ok, lo
     ):  # pragma: no cover - numba
-        # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid
+        # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid.
+        # wb: the block's array (parameter rows filled, row stride _BW; W < _BW only for the
+        # last, partial block, whose plants take the scalar kernel)
         T = cfg[_T]
         hmax = cfg[_HMAX]
         kind = int(cfg[_KIND])
@@ -704,10 +711,10 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                     ok[j] = True
                     dd[j] = d
                     xv0[j] = x[b, 3]
-                    Tout, Qint = _room_inputs(b, dist, tab, ctr, cfg)
+                    Tout, Qint = _room_inputs(b, acc)
                     # the scalar kernel: actuator effects, the lanes of a partial block, and every
                     # plant of the variant without lockstep
-                    if not lockstep or W != _BW or lanes[_ax._LN_PLAIN, b] == 0.0:
+                    if not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0:
                         EE[j], QQ[j], acc[b, _A_QLAST] = _room_dyn(
                             x[b], d, dist[b, 0], Tout, Qint, p[b], T, hmax, kind, acc[b, _A_QLAST]
                         )
@@ -720,12 +727,8 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                             n_off, hoff, mqoff = _part(toff, hmax)
             ntot = non + n_off
             nmax = max(nmax, ntot)
-            if not lockstep:
+            if not lockstep or W != _BW:
                 continue
-            for k in range(_NQA):
-                wb[k * W + i] = lanes[k, b]
-            for k in range(_NQR):
-                wb[(_NQA + k) * W + i] = lanes[_ax._N_LANE + k, b]
             for k in range(7):
                 wb[(_R_TP + k) * W + i] = x[b, k]
             wb[_R_NON * W + i] = non
@@ -785,13 +788,12 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
         ok = np.zeros(n, dtype=np.bool_)
         status = 0
         if mode == 0:
-            wb = np.empty(_NROW * _BW)
-            b = lo
+            b = lo  # lo is a multiple of _BW
             while b < hi:
                 W = min(_BW, hi - b)
                 s = block(
-                    b, W, wb, act, active, x, p, lanes, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0,
-                    ok, lo,
+                    b, W, lanes[b // _BW], act, active, x, p, dist, tab, acc, cfg, ctr, dd, EE,
+                    QQ, xv0, ok, lo,
                 )  # fmt: skip
                 status = max(status, s)
                 b += W
@@ -937,7 +939,8 @@ class _RoomEngine(Engine):
         )  # fmt: skip
         self.x = np.zeros((B, 7))
         self.p = np.zeros((B, model.full_theta(plant.theta).shape[1]))
-        self.lanes = np.zeros((_room._N_ROOM_LANE, B))  # lockstep kernel's lane table, from p
+        # the block arrays of the kernel (one per _BW plants), parameter rows from p
+        self.lanes = np.zeros((-(-B // _BW), _NROWB * _BW))
         self.dist = np.zeros((B, 3))
 
     def action_space(self) -> spaces.Space[Any]:
@@ -953,7 +956,13 @@ class _RoomEngine(Engine):
 
     def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
         self.p[b] = self.model.full_theta(theta)[0]  # type: ignore[attr-defined]
-        _room._room_lane_column(self.p[b], self.lanes, b)
+        col = np.zeros((_room._N_ROOM_LANE, 1))
+        _room._room_lane_column(self.p[b], col, 0)
+        wb = self.lanes[b // _BW]
+        i = b % _BW
+        wb[i : _NQA * _BW : _BW] = col[:_NQA, 0]  # actuator rows (without the plain flag)
+        wb[_NQA * _BW + i : _NQ * _BW : _BW] = col[_ax._N_LANE :, 0]  # room rows
+        wb[_R_PLAIN * _BW + i] = col[_ax._LN_PLAIN, 0]
 
     def _reset_row(self, b: int, rng: np.random.Generator) -> None:
         cfg = self.cfg

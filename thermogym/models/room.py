@@ -185,8 +185,12 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError, ParameterError, ShapeError
+from thermogym.models import _vmath
+from thermogym.models import axt211 as _axt211_module
 from thermogym.models._effects import EffectLayout
+from thermogym.models._vmath import vpow
 from thermogym.models.axt211 import (
     _I_C,
     _I_CG,
@@ -404,7 +408,7 @@ def _valve(h: float, Rv: float, kind: int) -> float:
         return h
     if h < _H0:
         return h / _H0 * Rv ** (_H0 - 1.0)
-    return Rv ** (h - 1.0)
+    return vpow(Rv, h - 1.0)
 
 
 @nb.njit(cache=True, inline="always")
@@ -419,7 +423,7 @@ def _supply(Tout: float, p: NDArray[np.float64]) -> float:
 def _emission(Tr: float, Ta: float, p: NDArray[np.float64], iref: float) -> float:
     # Q_heat = Q_rad_nom sgn(Δ)|Δ/ΔT_ref|^n_rad (EN 442-2); iref = 1/ΔT_ref
     d = Tr - Ta
-    q = p[_I_QN] * (abs(d) * iref) ** p[_I_NR]
+    q = p[_I_QN] * vpow(abs(d) * iref, p[_I_NR])
     return q if d >= 0.0 else -q
 
 
@@ -808,8 +812,8 @@ def _deriv_lane_full(
     # _deriv_lane with its power laws (x = TP, TG, xP, Tr, Ta, Ts); also returns Q_heat
     TP, TG, xP, Tr, Ta, Ts = x
     iref, ixmax, Rv, QN, NR = qr[4], qr[5], qr[6], qr[8], qr[9]
-    Q = _emission_signed(Tr, Ta, QN, _emission_base(Tr, Ta, iref) ** NR)
-    pwv = Rv ** (_stroke_lane(xP, xV0, qa, ixmax) - 1.0) if kind != 0 else 0.0
+    Q = _emission_signed(Tr, Ta, QN, vpow(_emission_base(Tr, Ta, iref), NR))
+    pwv = vpow(Rv, _stroke_lane(xP, xV0, qa, ixmax) - 1.0) if kind != 0 else 0.0
     d = _deriv_lane(TP, TG, xP, Tr, Ta, Ts, xV0, v2, Tsup, Tout, Qint, Q, pwv, qa, qr, kind)
     return d[0], d[1], d[2], d[3], d[4], d[5], d[6], Q
 
@@ -1167,3 +1171,7 @@ class RoomModel(Model):
 
 
 MODELS = {"room": RoomModel}
+
+
+# the kernels above inline compiled functions of these modules (cache validity)
+module_kernels_depend_on(globals(), _axt211_module, _vmath)
