@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym._jitcache import cache_depends_on
-from thermogym.envs.kpis import tp_update
+from thermogym.envs.kpis import tp_update_at
 
 __all__ = [
     "M_DRIFT",
@@ -166,10 +166,21 @@ def measure(v: float, meas: NDArray[np.float64], j: int, z: float, t_h: float) -
 
 
 @nb.njit(cache=True, inline="always")
-def tp_push(st: NDArray[np.float64], v: float, h: float, buf: NDArray[np.float64], n: int) -> int:
-    """Feed ``v`` to a turning-point tracker and append a confirmed point to ``buf``."""
-    tp = tp_update(st, v, h)
+def tp_push(
+    a: NDArray[np.float64],
+    r: int,
+    c: int,
+    v: float,
+    h: float,
+    buf: NDArray[np.float64],
+    n: int,
+) -> int:
+    """Feed ``v`` to the tracker in ``a[r, c:c + 4]``; keep a confirmed point in ``buf``.
+
+    A turning point confirmed by ``v`` goes to ``buf[r, n]``; returns the new count.
+    """
+    tp = tp_update_at(a, r, c, v, h)
     if not math.isnan(tp):
-        buf[n] = tp
+        buf[r, n] = tp
         return n + 1
     return n

@@ -118,7 +118,7 @@ from thermogym.envs._kernels import (
     tp_push,
 )
 from thermogym.envs._plant import ParamsLike, resolve_plant
-from thermogym.envs.kpis import miner_damage, tp_finish, tp_update
+from thermogym.envs.kpis import miner_damage, tp_finish, tp_update_at
 from thermogym.errors import ConfigError
 from thermogym.models import axt211 as _ax
 from thermogym.models.axt211 import AXT211
@@ -256,7 +256,7 @@ def _dyn_scalar(xb, d, kU, TU, pb, T, hmax):  # pragma: no cover - numba
     return E
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _valve_post(
     b,
     mode,
@@ -287,14 +287,12 @@ def _valve_post(
     TU = dist[b, 1]
     k = ctr[b, 0]
     ntp = ctr[b, 2]
-    st_T = acc[b, _A_TPT : _A_TPT + 4]
-    st_x = acc[b, _A_TPX : _A_TPX + 4]
     Pm = 0.0
     r = 0.0
     if mode == 1:
         # episode start: first samples of the trackers
-        ntp = tp_push(st_T, TP, cfg[_HT], tpbuf[b], ntp)
-        tp_update(st_x, xV, cfg[_HX])
+        ntp = tp_push(acc, b, _A_TPT, TP, cfg[_HT], tpbuf, ntp)
+        tp_update_at(acc, b, _A_TPX, xV, cfg[_HX])
     else:
         sw = 1.0 if (d > 0.0 and acc[b, _A_ON] == 0.0) else 0.0
         acc[b, _A_ON] = 1.0 if d >= 1.0 else 0.0
@@ -309,8 +307,8 @@ def _valve_post(
         acc[b, _A_N] += 1.0
         if TP > cfg[_WLIM]:
             acc[b, _A_ABOVE] += T
-        ntp = tp_push(st_T, TP, cfg[_HT], tpbuf[b], ntp)
-        tp_update(st_x, xV, cfg[_HX])
+        ntp = tp_push(acc, b, _A_TPT, TP, cfg[_HT], tpbuf, ntp)
+        tp_update_at(acc, b, _A_TPX, xV, cfg[_HX])
         r = -(
             cfg[_WT] * abs(e) / xmax
             + cfg[_WE] * Pm / cfg[_PREF]
@@ -326,13 +324,12 @@ def _valve_post(
     ctr[b, 2] = ntp
     # measurement of the state after the step (or at the start)
     cur = ctr[b, 1]
-    z = noise[b, cur]
     ctr[b, 1] = cur + 1
     t_h = k * T / 3600.0
-    obs[b, 0] = measure(xV, meas, 0, z[0], t_h)
-    obs[b, 1] = measure(TG, meas, 1, z[1], t_h)
-    obs[b, 2] = measure(TU, meas, 2, z[2], t_h)
-    obs[b, 3] = measure(kU, meas, 3, z[3], t_h)
+    obs[b, 0] = measure(xV, meas, 0, noise[b, cur, 0], t_h)
+    obs[b, 1] = measure(TG, meas, 1, noise[b, cur, 1], t_h)
+    obs[b, 2] = measure(TU, meas, 2, noise[b, cur, 2], t_h)
+    obs[b, 3] = measure(kU, meas, 3, noise[b, cur, 3], t_h)
     obs[b, 4] = sp[b, min(k // hold, nseg - 1)]
     if cfg[_PREV] > 0.0:
         obs[b, 5] = acc[b, _A_UPREV]

@@ -91,6 +91,7 @@ __all__ = [
     "time_above_limit_h",
     "tp_finish",
     "tp_update",
+    "tp_update_at",
     "turning_points",
     "wax_damage",
     "wax_thermal_cycles",
@@ -219,6 +220,33 @@ def pwm_switch_cycles(duty: ArrayLike, *, initially_on: bool = False) -> int:
 
 
 # ------------------------------------------------------- turning points
+@nb.njit(cache=True, inline="always")
+def _tp_next(
+    started: float, ext: float, d: float, conf: float, v: float, h: float
+) -> tuple[float, float, float, float, float]:
+    # one sample of the turning-point tracker on its state (started, extreme, direction,
+    # confirmed): the new state and a confirmed turning point or NaN
+    if started == 0.0:
+        return 1.0, v, 0.0, conf, v
+    if d == 0.0:
+        if v - ext >= h:
+            return started, v, 1.0, conf, math.nan
+        if ext - v >= h:
+            return started, v, -1.0, conf, math.nan
+        return started, ext, d, conf, math.nan
+    if d > 0.0:
+        if v > ext:
+            return started, v, d, conf, math.nan
+        if ext - v >= h:
+            return started, v, -1.0, conf + 1.0, ext
+        return started, ext, d, conf, math.nan
+    if v < ext:
+        return started, v, d, conf, math.nan
+    if v - ext >= h:
+        return started, v, 1.0, conf + 1.0, ext
+    return started, ext, d, conf, math.nan
+
+
 @nb.njit(cache=True)
 def tp_update(st: NDArray[np.float64], v: float, h: float) -> float:
     """Feed one sample ``v`` to a hysteresis turning-point tracker.
@@ -228,39 +256,17 @@ def tp_update(st: NDArray[np.float64], v: float, h: float) -> float:
     turning point confirmed by this sample, or NaN. The first sample is
     returned as the first turning point.
     """
-    if st[0] == 0.0:
-        st[0] = 1.0
-        st[1] = v
-        st[2] = 0.0
-        return v
-    d = st[2]
-    if d == 0.0:
-        if v - st[1] >= h:
-            st[2] = 1.0
-            st[1] = v
-        elif st[1] - v >= h:
-            st[2] = -1.0
-            st[1] = v
-        return math.nan
-    if d > 0.0:
-        if v > st[1]:
-            st[1] = v
-        elif st[1] - v >= h:
-            peak = st[1]
-            st[1] = v
-            st[2] = -1.0
-            st[3] += 1.0
-            return peak
-        return math.nan
-    if v < st[1]:
-        st[1] = v
-    elif v - st[1] >= h:
-        valley = st[1]
-        st[1] = v
-        st[2] = 1.0
-        st[3] += 1.0
-        return valley
-    return math.nan
+    st[0], st[1], st[2], st[3], tp = _tp_next(st[0], st[1], st[2], st[3], v, h)
+    return tp
+
+
+@nb.njit(cache=True, inline="always")
+def tp_update_at(a: NDArray[np.float64], r: int, c: int, v: float, h: float) -> float:
+    """:func:`tp_update` on the tracker held in ``a[r, c:c + 4]`` (no array view: cheaper)."""
+    a[r, c], a[r, c + 1], a[r, c + 2], a[r, c + 3], tp = _tp_next(
+        a[r, c], a[r, c + 1], a[r, c + 2], a[r, c + 3], v, h
+    )
+    return tp
 
 
 @nb.njit(cache=True)

@@ -414,9 +414,14 @@ def _valve(h: float, Rv: float, kind: int) -> float:
 @nb.njit(cache=True, inline="always")
 def _supply(Tout: float, p: NDArray[np.float64]) -> float:
     # heating curve, linear in T_out between T_out_d and 20 °C, clipped outside
-    Td = p[_I_TOD]
+    return _supply_at(Tout, p[_I_TOD], p[_I_TS20], p[_I_TSD])
+
+
+@nb.njit(cache=True, inline="always")
+def _supply_at(Tout: float, Td: float, Ts20: float, Tsd: float) -> float:
+    # _supply from the parameters T_out_d, T_sup_20, T_sup_d
     To = min(max(Tout, Td), _T_DESIGN)
-    return p[_I_TS20] + (p[_I_TSD] - p[_I_TS20]) * (_T_DESIGN - To) / (_T_DESIGN - Td)
+    return Ts20 + (Tsd - Ts20) * (_T_DESIGN - To) / (_T_DESIGN - Td)
 
 
 @nb.njit(cache=True, inline="always")
