@@ -946,6 +946,7 @@ class _RoomEngine(Engine):
         # the block arrays of the kernel (one per _BW plants), parameter rows from p
         self.lanes = np.zeros((-(-B // _BW), _NROWB * _BW))
         self.dist = np.zeros((B, 3))
+        self._kernels: _StepKernels | None = None
 
     def action_space(self) -> spaces.Space[Any]:
         if self.cfg.action_mode == "onoff":
@@ -1007,7 +1008,9 @@ class _RoomEngine(Engine):
             self.acc, self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv, self.obs,
             self.out, self.sig,
         )  # fmt: skip
-        k = _step_kernels(int(self.cfgv[_KIND]), self.B >= _BW)
+        k = self._kernels
+        if k is None:  # looked up once (the valve characteristic and B are fixed)
+            k = self._kernels = _step_kernels(int(self.cfgv[_KIND]), self.B >= _BW)
         if self.parallel and self.B > _BW:
             return int(k.step_parallel(*args, nb.get_num_threads()))
         return int(k.step(*args))

@@ -100,18 +100,21 @@ def vlog(x: float) -> float:
     e = e + 1.0 if hi else e
     s = (m - 1.0) / (m + 1.0)
     z = s * s
-    # 2 atanh(s) = 2 (s + s³/3 + s⁵/5 + ...), |s| ≤ 0.1716: terms to s^23 (< 1e-18 relative)
-    p = 2.0 / 23.0
-    p = _fma(p, z, 2.0 / 21.0)
-    p = _fma(p, z, 2.0 / 19.0)
-    p = _fma(p, z, 2.0 / 17.0)
-    p = _fma(p, z, 2.0 / 15.0)
-    p = _fma(p, z, 2.0 / 13.0)
-    p = _fma(p, z, 2.0 / 11.0)
-    p = _fma(p, z, 2.0 / 9.0)
-    p = _fma(p, z, 2.0 / 7.0)
-    p = _fma(p, z, 2.0 / 5.0)
-    p = _fma(p, z, 2.0 / 3.0)
+    # 2 atanh(s) = 2 (s + s³/3 + s⁵/5 + ...), |s| ≤ 0.1716: terms to s^23 (< 1e-18
+    # relative); p(z) = Σ 2/(2j + 3) z^j, j = 0..10, by Estrin's scheme (a short
+    # dependency chain: what a single plant's scalar kernel waits for)
+    z2 = z * z
+    z4 = z2 * z2
+    z8 = z4 * z4
+    a0 = _fma(2.0 / 5.0, z, 2.0 / 3.0)
+    a1 = _fma(2.0 / 9.0, z, 2.0 / 7.0)
+    a2 = _fma(2.0 / 13.0, z, 2.0 / 11.0)
+    a3 = _fma(2.0 / 17.0, z, 2.0 / 15.0)
+    a4 = _fma(2.0 / 21.0, z, 2.0 / 19.0)
+    b0 = _fma(a1, z2, a0)
+    b1 = _fma(a3, z2, a2)
+    b2 = _fma(2.0 / 23.0, z2, a4)
+    p = _fma(b2, z8, _fma(b1, z4, b0))
     lnm = 2.0 * s + s * (z * p)
     return e * _LN2_HI + (e * _LN2_LO + lnm)
 
@@ -123,20 +126,23 @@ def vexp(t: float) -> float:
     kk = tc * _INV_LN2 + _MAGIC  # round(t / ln 2) in the low bits
     k = kk - _MAGIC
     r = (tc - k * _LN2_HI) - k * _LN2_LO  # |r| ≤ ln2/2 (+ rounding)
-    # e^r by Taylor to r^14 / 14! (< 4e-18 at |r| = ln2/2), Horner
-    q = 1.0 / 87178291200.0
-    q = _fma(q, r, 1.0 / 6227020800.0)
-    q = _fma(q, r, 1.0 / 479001600.0)
-    q = _fma(q, r, 1.0 / 39916800.0)
-    q = _fma(q, r, 1.0 / 3628800.0)
-    q = _fma(q, r, 1.0 / 362880.0)
-    q = _fma(q, r, 1.0 / 40320.0)
-    q = _fma(q, r, 1.0 / 5040.0)
-    q = _fma(q, r, 1.0 / 720.0)
-    q = _fma(q, r, 1.0 / 120.0)
-    q = _fma(q, r, 1.0 / 24.0)
-    q = _fma(q, r, 1.0 / 6.0)
-    q = _fma(q, r, 0.5)
+    # e^r by Taylor to r^14 / 14! (< 4e-18 at |r| = ln2/2): q(r) = Σ r^j / (j + 2)!,
+    # j = 0..12, by Estrin's scheme
+    r2 = r * r
+    r4 = r2 * r2
+    r8 = r4 * r4
+    a0 = _fma(1.0 / 6.0, r, 0.5)
+    a1 = _fma(1.0 / 120.0, r, 1.0 / 24.0)
+    a2 = _fma(1.0 / 5040.0, r, 1.0 / 720.0)
+    a3 = _fma(1.0 / 362880.0, r, 1.0 / 40320.0)
+    a4 = _fma(1.0 / 39916800.0, r, 1.0 / 3628800.0)
+    a5 = _fma(1.0 / 6227020800.0, r, 1.0 / 479001600.0)
+    b0 = _fma(a1, r2, a0)
+    b1 = _fma(a3, r2, a2)
+    b2 = _fma(a5, r2, a4)
+    c0 = _fma(b1, r4, b0)
+    c1 = _fma(1.0 / 87178291200.0, r4, b2)
+    q = _fma(c1, r8, c0)
     er = 1.0 + (r + r * (r * q))
     scale = _float(((_bits(kk) - _MAGIC_BITS) + 1023) << 52)  # 2^k, |k| ≤ 1010
     y = er * scale

@@ -693,8 +693,8 @@ def _output_kernel(
 # heater input, branch-free so that a loop over lanes vectorises; the actuator part is
 # axt211's own lane right-hand side, the rest is _deriv operation for operation, so a lane
 # reproduces _advance bit for bit (for actuator parameter sets without an active effect).
-# The emission's power law calls libm's pow per lane (no vector pow without SVML): it is
-# most of the cost of a lane step.
+# The power laws (emission, equal-percentage valve) use _vmath.vpow, which vectorises (libm's
+# pow does not without SVML) and is the same function in _deriv, so results stay identical.
 
 #: Rows of the room's lane table after the AXT211 rows (axt211._N_LANE of them).
 (
