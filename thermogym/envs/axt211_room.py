@@ -947,6 +947,7 @@ class _RoomEngine(Engine):
         self.lanes = np.zeros((-(-B // _BW), _NROWB * _BW))
         self.dist = np.zeros((B, 3))
         self._kernels: _StepKernels | None = None
+        self._args: list[tuple[Any, ...] | None] = [None, None]  # kernel arguments per mode
 
     def action_space(self) -> spaces.Space[Any]:
         if self.cfg.action_mode == "onoff":
@@ -1003,11 +1004,13 @@ class _RoomEngine(Engine):
         self.x[b] = (Tz, Tz, -c, 0.0, Tz, Tz, Ts)
 
     def _kernel(self, mode: int) -> int:
-        args = (
-            mode, self.act, self.active, self.x, self.p, self.lanes, self.dist, self.tab,
-            self.acc, self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv, self.obs,
-            self.out, self.sig,
-        )  # fmt: skip
+        args = self._args[mode]
+        if args is None or args[9] is not self.tpbuf:  # the arrays are fixed but tpbuf grows
+            args = self._args[mode] = (
+                mode, self.act, self.active, self.x, self.p, self.lanes, self.dist, self.tab,
+                self.acc, self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv, self.obs,
+                self.out, self.sig,
+            )  # fmt: skip
         k = self._kernels
         if k is None:  # looked up once (the valve characteristic and B are fixed)
             k = self._kernels = _step_kernels(int(self.cfgv[_KIND]), self.B >= _BW)
