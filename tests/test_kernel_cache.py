@@ -79,3 +79,34 @@ def test_stable_key_describes_kernels_by_name_and_constants():
         assert "object" in str(e)
     else:  # pragma: no cover
         raise AssertionError("an object without a stable description must be refused")
+
+
+def test_a_kernel_is_recompiled_when_a_module_it_inlines_changes(tmp_path):
+    # module_kernels_depend_on: numba alone keys a.f's cache on a.py only, and would load
+    # the stale machine code of b.g after b.py changed
+    (tmp_path / "b.py").write_text(
+        "import numba as nb\n\n@nb.njit(cache=True, inline='always')\ndef g(x):\n"
+        "    return x + 1.0\n"
+    )
+    (tmp_path / "a.py").write_text(
+        "import numba as nb\nimport b\nfrom thermogym._jitcache import module_kernels_depend_on\n"
+        "\n@nb.njit(cache=True)\ndef f(x):\n    return b.g(x) * 2.0\n\n"
+        "module_kernels_depend_on(globals(), b)\n"
+    )
+    env = {
+        **os.environ,
+        "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
+        "PYTHONPATH": str(tmp_path) + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    }
+
+    def run() -> float:
+        out = subprocess.run(
+            [sys.executable, "-c", "import a; print(a.f(1.0))"],
+            env=env, capture_output=True, text=True, check=True, cwd=tmp_path,
+        )  # fmt: skip
+        return float(out.stdout.strip())
+
+    assert run() == 4.0
+    assert run() == 4.0  # from the cache
+    (tmp_path / "b.py").write_text((tmp_path / "b.py").read_text().replace("1.0", "2.0"))
+    assert run() == 6.0
