@@ -33,9 +33,11 @@ __all__ = [
     "M_SIG",
     "block_steppers",
     "cache_depends_on",
+    "lane_blocks",
     "meas_array",
     "measure",
     "plant_loops",
+    "put_lane",
     "tp_buffer_full",
     "tp_push",
 ]
@@ -131,6 +133,34 @@ def block_steppers(rows: Any, bw: int, *modules: ModuleType) -> tuple[Any, Any]:
     for k in (step, step_parallel):
         cache_depends_on(k, *modules)
     return step, step_parallel
+
+
+def lane_blocks(n_plants: int, bw: int, n_rows: int) -> NDArray[np.float64]:
+    """Block arrays of a lockstep kernel: one flat array of ``n_rows`` x ``bw`` per block.
+
+    Row ``r`` of plant ``b`` lies at ``[b // bw, r * bw + b % bw]``. The parameter rows are
+    written once per parameter set (:func:`put_lane`), the other rows by the kernel.
+    """
+    return np.zeros((-(-n_plants // bw), n_rows * bw))
+
+
+def put_lane(
+    blocks: NDArray[np.float64],
+    b: int,
+    bw: int,
+    values: NDArray[np.float64],
+    plain: float,
+    plain_row: int,
+) -> None:
+    """Write plant ``b``'s parameter rows (``values`` to rows 0, 1, ...) into its block.
+
+    ``plain`` (1: no actuator effect, the lockstep applies to the plant) goes to row
+    ``plain_row``.
+    """
+    wb = blocks[b // bw]
+    i = b % bw
+    wb[i : len(values) * bw : bw] = values
+    wb[plain_row * bw + i] = plain
 
 
 def meas_array(

@@ -129,8 +129,10 @@ from thermogym.envs._base import (
 from thermogym.envs._kernels import (
     block_steppers,
     cache_depends_on,
+    lane_blocks,
     meas_array,
     measure,
+    put_lane,
     tp_push,
 )
 from thermogym.envs._plant import ParamsLike, resolve_plant
@@ -299,7 +301,7 @@ def _segment(xb, u, kU, Tout, Qint, pb, L, hmax, kind, iref, P0, Q0):  # pragma:
 # As in axt211_valve: the plants of a batch advance in lockstep, RK4 sub-step s of every
 # plant of a block of W lanes per pass (each plant with its own step size and heater input;
 # plants with fewer sub-steps idle), in a branch-free loop over the lanes that vectorises;
-# the room model's lane step (room._rk4_room_lane) is _advance operation for operation and
+# the stages (_stage, with room._deriv_lane) are room._advance operation for operation and
 # the trapezoidal points are those of _segment, so results are bit for bit those of
 # stepping each plant alone. Parameter sets with an active actuator effect take the scalar
 # _room_dyn. A block lives in one flat array, row r of lane i at wb[r * W + i].
@@ -498,8 +500,8 @@ def _powers(wb, W, kind):  # pragma: no cover - numba
 @nb.njit(cache=True, inline="always")
 def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
     # stage j (1-4, a compile-time constant) of RK4 sub-step sf of lane i:
-    # room._rk4_room_lane / _deriv_lane operation for operation, with the power laws from
-    # _powers and the sub-step's step size and heater input from _prepare
+    # room._advance / _deriv operation for operation (via room._deriv_lane), with the power
+    # laws from _powers and the sub-step's step size and heater input from _prepare
     first = j == 1
     last = j == 4
     qa = _ax._lane_load(wb, 0, W, i)
@@ -948,8 +950,7 @@ class _RoomEngine(Engine):
         )  # fmt: skip
         self.x = np.zeros((B, 7))
         self.p = np.zeros((B, model.full_theta(plant.theta).shape[1]))
-        # the block arrays of the kernel (one per _BW plants), parameter rows from p
-        self.lanes = np.zeros((-(-B // _BW), _NROWB * _BW))
+        self.lanes = lane_blocks(B, _BW, _NROWB)  # the kernel's block arrays, rows from p
         self.dist = np.zeros((B, 3))
         self._kernels: _StepKernels | None = None
         self._args: list[tuple[Any, ...] | None] = [None, None]  # kernel arguments per mode
@@ -969,11 +970,9 @@ class _RoomEngine(Engine):
         self.p[b] = self.model.full_theta(theta)[0]  # type: ignore[attr-defined]
         col = np.zeros((_room._N_ROOM_LANE, 1))
         _room._room_lane_column(self.p[b], col, 0)
-        wb = self.lanes[b // _BW]
-        i = b % _BW
-        wb[i : _NQA * _BW : _BW] = col[:_NQA, 0]  # actuator rows (without the plain flag)
-        wb[_NQA * _BW + i : _NQ * _BW : _BW] = col[_ax._N_LANE :, 0]  # room rows
-        wb[_R_PLAIN * _BW + i] = col[_ax._LN_PLAIN, 0]
+        # block rows: the actuator rows without the plain flag, then the room rows
+        rows = np.concatenate([col[:_NQA, 0], col[_ax._N_LANE :, 0]])
+        put_lane(self.lanes, b, _BW, rows, col[_ax._LN_PLAIN, 0], _R_PLAIN)
 
     def _reset_row(self, b: int, rng: np.random.Generator) -> None:
         cfg = self.cfg

@@ -113,8 +113,10 @@ from thermogym.envs._base import (
 from thermogym.envs._kernels import (
     block_steppers,
     cache_depends_on,
+    lane_blocks,
     meas_array,
     measure,
+    put_lane,
     tp_push,
 )
 from thermogym.envs._plant import ParamsLike, resolve_plant
@@ -362,11 +364,13 @@ def _valve_post(
 #: Modules whose sources the compiled kernels of this module contain.
 _DEPS = (_ax, _kpis, _kernels)
 
-_BW = 64  # lanes of a full block: its 34 rows x 64 lanes x 8 B = 17 KiB stay in L1 cache
-_NQ = 20  # lane-table rows copied into a block (all but the plain flag)
+_BW = 64  # lanes of a full block: its 35 rows x 64 lanes x 8 B = 18 KiB stay in L1 cache
+_NQ = _ax._N_LANE - 1  # lane-table rows in a block (all but the plain flag)
 (_R_TP, _R_TG, _R_XP, _R_XV, _R_NON, _R_NTOT, _R_HON, _R_HOFF, _R_MQ, _R_CNT, _R_E, _R_P0,
  _R_KU2, _R_TU) = range(_NQ, _NQ + 14)  # fmt: skip
-_NROW = _NQ + 14
+_R_PLAIN = _NQ + 14  # 1 where the plant has no physical effect (the lockstep applies)
+_NROWB = _NQ + 15  # rows of a block array: the engine keeps one per block of plants, so the
+# parameter rows (written when a parameter set is installed) are not copied per step
 
 
 @nb.njit(cache=True, inline="always")
@@ -440,9 +444,11 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
 
     @nb.njit(cache=True)
     def block(
-        b0, W, wb, act, active, x, p, lanes, dist, cfg, ctr, dd, EE, xv0, ok, lo
+        b0, W, wb, act, active, x, p, dist, cfg, ctr, dd, EE, xv0, ok, lo
     ):  # pragma: no cover - numba
-        # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid
+        # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid.
+        # wb: the block's array (parameter rows filled, row stride _BW; W < _BW only for the
+        # last, partial block, whose plants take the scalar kernel)
         T = cfg[_T]
         hmax = cfg[_HMAX]
         status = 0
@@ -461,7 +467,7 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
                     xv0[j] = x[b, 3]
                     # the scalar kernel: physical effects, the lanes of a partial block, and every
                     # plant of the variant without lockstep
-                    if not lockstep or W != _BW or lanes[_ax._LN_PLAIN, b] == 0.0:
+                    if not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0:
                         EE[j] = _dyn_scalar(x[b], d, dist[b, 0], dist[b, 1], p[b], T, hmax)
                     else:
                         non, hon, n_off, hoff = _segments(d, T, hmax)
@@ -469,10 +475,8 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
                         if non > 0:
                             mq = float(max(1, int(QUAD_S / hon + 1e-9)))
             nmax = max(nmax, ntot)
-            if not lockstep:
+            if not lockstep or W != _BW:
                 continue
-            for k in range(_NQ):
-                wb[k * W + i] = lanes[k, b]
             wb[_R_TP * W + i] = x[b, 0]
             wb[_R_TG * W + i] = x[b, 1]
             wb[_R_XP * W + i] = x[b, 2]
@@ -515,11 +519,12 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
         ok = np.zeros(n, dtype=np.bool_)
         status = 0
         if mode == 0:
-            wb = np.empty(_NROW * _BW)
-            b = lo
+            b = lo  # lo is a multiple of _BW
             while b < hi:
                 W = min(_BW, hi - b)
-                s = block(b, W, wb, act, active, x, p, lanes, dist, cfg, ctr, dd, EE, xv0, ok, lo)
+                s = block(
+                    b, W, lanes[b // _BW], act, active, x, p, dist, cfg, ctr, dd, EE, xv0, ok, lo
+                )  # fmt: skip
                 status = max(status, s)
                 b += W
         for j in range(n):
@@ -616,7 +621,7 @@ class _ValveEngine(Engine):
         )
         self.x = np.zeros((B, 4))
         self.p = np.zeros((B, plant.model.full_theta(plant.theta).shape[1]))  # type: ignore[attr-defined]
-        self.lanes = np.zeros((_ax._N_LANE, B))  # lane table of the lockstep kernel, from p
+        self.lanes = lane_blocks(B, _BW, _NROWB)  # the kernel's block arrays, rows from p
         self.dist = np.zeros((B, 2))
         self.sp = np.zeros((B, self.n_seg))
 
@@ -662,7 +667,9 @@ class _ValveEngine(Engine):
 
     def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
         self.p[b] = self.model.full_theta(theta)[0]  # type: ignore[attr-defined]
-        _ax._lane_column(self.p[b], self.lanes, b)
+        col = np.zeros((_ax._N_LANE, 1))
+        _ax._lane_column(self.p[b], col, 0)
+        put_lane(self.lanes, b, _BW, col[:_NQ, 0], col[_ax._LN_PLAIN, 0], _R_PLAIN)
 
     def _reset_row(self, b: int, rng: np.random.Generator) -> None:
         TU = draw(rng, self.ambient)
