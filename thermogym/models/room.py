@@ -204,8 +204,6 @@ from thermogym.models.axt211 import (
     _backlash,
     _backlash_lane,
     _lane_column,
-    _max,
-    _min,
     _power,
     _rhs,
     _rhs_lane,
@@ -688,13 +686,13 @@ def _output_kernel(
 
 
 # ----------------------------------------------------------------------------- lockstep lanes
-# Batch-innermost form of _advance for the environments' lockstep kernels (see the lane
-# functions of axt211): one RK4 step of one system ("lane") with its own step size and
-# heater input, branch-free so that a loop over lanes vectorises; the actuator part is
-# axt211's own lane right-hand side, the rest is _deriv operation for operation, so a lane
-# reproduces _advance bit for bit (for actuator parameter sets without an active effect).
-# The power laws (emission, equal-percentage valve) use _vmath.vpow, which vectorises (libm's
-# pow does not without SVML) and is the same function in _deriv, so results stay identical.
+# Batch-innermost pieces of _deriv for the environments' lockstep kernels (see the lane
+# functions of axt211): the right-hand side of one system ("lane"), branch-free so that a
+# loop over lanes vectorises; the actuator part is axt211's own lane right-hand side, the
+# rest is _deriv operation for operation, so a lane reproduces _advance bit for bit (for
+# actuator parameter sets without an active effect). The power laws (emission,
+# equal-percentage valve) use _vmath.vpow, which vectorises (libm's pow does not without
+# SVML) and is the same function in _deriv, so results stay identical.
 
 #: Rows of the room's lane table after the AXT211 rows (axt211._N_LANE of them).
 (
@@ -800,72 +798,6 @@ def _deriv_lane(
     # C_s dT_s/dt = H_as (T_a − T_s) + H_so (T_out − T_s) + (1 − f) Q_int
     dTs = (-q_as + Hso * (Tout - Ts) + (1.0 - f) * Qint) * ics
     return dTP, dTG, dxP, dTr, dTa, dTs, R
-
-
-@nb.njit(cache=True, inline="always")
-def _deriv_lane_full(
-    x: tuple,  # type: ignore[type-arg]
-    xV0: float,
-    v2: float,
-    Tsup: float,
-    Tout: float,
-    Qint: float,
-    qa: tuple,  # type: ignore[type-arg]
-    qr: tuple,  # type: ignore[type-arg]
-    kind: int,
-) -> tuple[float, float, float, float, float, float, float, float]:
-    # _deriv_lane with its power laws (x = TP, TG, xP, Tr, Ta, Ts); also returns Q_heat
-    TP, TG, xP, Tr, Ta, Ts = x
-    iref, ixmax, Rv, QN, NR = qr[4], qr[5], qr[6], qr[8], qr[9]
-    Q = _emission_signed(Tr, Ta, QN, vpow(_emission_base(Tr, Ta, iref), NR))
-    pwv = vpow(Rv, _stroke_lane(xP, xV0, qa, ixmax) - 1.0) if kind != 0 else 0.0
-    d = _deriv_lane(TP, TG, xP, Tr, Ta, Ts, xV0, v2, Tsup, Tout, Qint, Q, pwv, qa, qr, kind)
-    return d[0], d[1], d[2], d[3], d[4], d[5], d[6], Q
-
-
-@nb.njit(cache=True, inline="always")
-def _rk4_room_lane(
-    x: tuple,  # type: ignore[type-arg]
-    v2: float,
-    Tsup: float,
-    Tout: float,
-    Qint: float,
-    h: float,
-    qa: tuple,  # type: ignore[type-arg]
-    qr: tuple,  # type: ignore[type-arg]
-    kind: int,
-) -> tuple:  # type: ignore[type-arg]
-    """One RK4 step of one lane as _advance (n = 1).
-
-    Returns the new state (7 values) and R_PTC and Q_heat at the start of the step.
-    """
-    TP, TG, xP, xV, Tr, Ta, Ts = x
-    hh = 0.5 * h
-    w = h / 6.0
-    a1, b1, c1, d1, e1, f1, R, Q = _deriv_lane_full(
-        (TP, TG, xP, Tr, Ta, Ts), xV, v2, Tsup, Tout, Qint, qa, qr, kind
-    )
-    a2, b2, c2, d2, e2, f2, _, _ = _deriv_lane_full(
-        (TP + hh * a1, TG + hh * b1, xP + hh * c1, Tr + hh * d1, Ta + hh * e1, Ts + hh * f1),
-        xV, v2, Tsup, Tout, Qint, qa, qr, kind,
-    )  # fmt: skip
-    a3, b3, c3, d3, e3, f3, _, _ = _deriv_lane_full(
-        (TP + hh * a2, TG + hh * b2, xP + hh * c2, Tr + hh * d2, Ta + hh * e2, Ts + hh * f2),
-        xV, v2, Tsup, Tout, Qint, qa, qr, kind,
-    )  # fmt: skip
-    a4, b4, c4, d4, e4, f4, _, _ = _deriv_lane_full(
-        (TP + h * a3, TG + h * b3, xP + h * c3, Tr + h * d3, Ta + h * e3, Ts + h * f3),
-        xV, v2, Tsup, Tout, Qint, qa, qr, kind,
-    )  # fmt: skip
-    TP += w * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-    TG += w * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
-    xP += w * (c1 + 2.0 * c2 + 2.0 * c3 + c4)
-    Tr += w * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
-    Ta += w * (e1 + 2.0 * e2 + 2.0 * e3 + e4)
-    Ts += w * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
-    xP = _min(_max(xP, qa[16]), qa[17])  # end stops and (20), as in _advance
-    xV = _backlash_lane(xP, xV, qa[18], qa[19])
-    return TP, TG, xP, xV, Tr, Ta, Ts, R, Q
 
 
 def valve_flow(
