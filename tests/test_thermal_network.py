@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import simpson
 
-from thermogym.errors import ParameterError, UnknownNameError
+from thermogym.errors import ConfigError, ParameterError, UnknownNameError
 from thermogym.models.spindle import SPINDLE_OUTPUTS, SpindleModel
 from thermogym.models.strut import ALPHA_STEEL, ELONGATION_PATH, STRUT_OUTPUTS, StrutModel
 from thermogym.models.thermal_network import network_matrices
@@ -157,3 +157,21 @@ def test_unknown_effect_and_parameter_errors():
         SpindleModel(effects=("backlash",))
     with pytest.raises(ParameterError, match=r"'C_shaft' of set 0 is -5.0"):
         SpindleModel().simulate(_const(5, 1000.0, 20.0), dt=1.0, theta={"C_shaft": -5.0})
+
+
+def test_simulate_network_takes_an_explicit_substep_count():
+    m = SpindleModel(effects=["nonlinear_heat_transfer"])
+    th = m.theta({"gamma_nl": 1.0}, batch=1)
+    T, dt = 120, 120.0
+    u = np.column_stack([np.repeat([0.0, 6000.0, 3000.0], T // 3), np.full(T, 21.0)])[None]
+    x0 = np.full((1, len(m.nodes)), 21.0)
+    n = m.rk4_substeps(m.network(m._layout.full_theta(th)), dt, 6000.0)
+    y_default, _ = m.simulate_network(th, u, dt, x0)
+    y_same, _ = m.simulate_network(th, u, dt, x0, substeps=n)
+    np.testing.assert_array_equal(y_same, y_default)  # the default is that count
+    y_fine, _ = m.simulate_network(th, u, dt, x0, substeps=4 * n)
+    assert not np.array_equal(y_fine, y_default)  # the count is used ...
+    np.testing.assert_allclose(y_fine, y_default, atol=1e-4)  # ... and RK4 has converged
+    for bad in (0, 1.5):
+        with pytest.raises(ConfigError, match=f"substeps is {bad!r}"):
+            m.simulate_network(th, u, dt, x0, substeps=bad)

@@ -228,38 +228,10 @@ class LossNetwork(SwitchedNetwork):
         return max(1, math.ceil(dt * rho * (1.0 + 2.0 * gam * _DT_SPAN / p.dT_ref)))
 
     def _simulate(self, theta, u, dt, x0, return_states):
-        from thermogym.models.thermal_network import _rk4_kernel
-
         p = self.plant
-        full = p._layout.full_theta(theta)
-        if p._is_linear(full):  # γ = 0: the plant's exact discretisation
-            return p._simulate(theta, u, dt, x0, return_states)
-        net = p.network(full)
-        B, T = u.shape[0], u.shape[1]
-        y = np.empty((B, T, net.H.shape[0]))
-        xs = np.empty((B, T, len(p.nodes))) if return_states else np.empty((1, 1, 1))
-        _rk4_kernel(
-            np.ascontiguousarray(net.C),
-            np.ascontiguousarray(net.G),
-            np.ascontiguousarray(net.g_amb),
-            np.ascontiguousarray(net.q),
-            p._effect_values(full),
-            float(p.u_ref),
-            float(p.dT_ref),
-            p._forced_mask,
-            np.ascontiguousarray(net.H),
-            np.ascontiguousarray(net.h0),
-            np.ascontiguousarray(x0),
-            np.ascontiguousarray(u),
-            np.zeros((1, 1, 1)),
-            0.0,
-            float(dt),
-            self.substeps(theta, dt),
-            y,
-            xs,
-            return_states,
-        )
-        return y, (xs if return_states else None)
+        # γ = 0: the plant's exact discretisation; otherwise its RK4 with these sub-steps
+        nsub = None if p._is_linear(p._layout.full_theta(theta)) else self.substeps(theta, dt)
+        return p.simulate_network(theta, u, dt, x0, return_states=return_states, substeps=nsub)
 
 
 def switched_or_none(model: Model) -> Model | None:

@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 from threadpoolctl import ThreadpoolController
 
+from thermogym.errors import ConfigError
 from thermogym.models._effects import EffectLayout, PhysicalEffect
 from thermogym.models.base import Model, Parameter, Signal
 
@@ -490,6 +491,7 @@ class ThermalNetworkModel(Model):
         force_rk4: bool = False,
         t0: float = 0.0,
         return_states: bool = False,
+        substeps: int | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
         """Simulate validated arrays, exactly when linear and by RK4 otherwise.
 
@@ -506,6 +508,9 @@ class ThermalNetworkModel(Model):
         t0 : float
             Time of the first sample [s] (for time-varying effects).
         return_states : bool
+        substeps : int, optional
+            RK4 sub-steps per sample; default :meth:`rk4_substeps` (a caller with a
+            tighter bound for its effects passes its own).
 
         Returns
         -------
@@ -517,7 +522,12 @@ class ThermalNetworkModel(Model):
         if self._is_linear(full) and q_ext is None and not force_rk4:
             Ad, Bd, net = self.discrete(theta, dt)
             return lti_simulate(Ad, Bd, net.H, net.h0, x0, u, return_states)
-        nsub = self.rk4_substeps(net, dt, float(np.max(np.abs(u[:, :, 0]))))
+        if substeps is None:
+            nsub = self.rk4_substeps(net, dt, float(np.max(np.abs(u[:, :, 0]))))
+        elif isinstance(substeps, int | np.integer) and substeps >= 1:
+            nsub = int(substeps)
+        else:
+            raise ConfigError(f"substeps is {substeps!r}; expected an integer of at least 1")
         B, T = u.shape[0], u.shape[1]
         y = np.empty((B, T, net.H.shape[0]))
         xs = np.empty((B, T, len(self.nodes))) if return_states else np.empty((1, 1, 1))
