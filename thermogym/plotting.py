@@ -29,8 +29,15 @@ def save_figure(fig: plt.Figure, path: str | Path, dpi: int = 110) -> Path:
         plt.close(fig)
 
 
-def _time_axis(t: np.ndarray) -> tuple[np.ndarray, str]:
+def time_axis(t: np.ndarray, *, relative: bool = False) -> tuple[np.ndarray, str]:
+    """Times [s] in a readable unit (h above 6 h, min above 10 min) and the axis label.
+
+    ``relative``: count from the first sample.
+    """
+    t = np.asarray(t, dtype=float)
     span = float(t[-1] - t[0]) if t.size else 0.0
+    if relative and t.size:
+        t = t - t[0]
     if span > 6 * 3600:
         return t / 3600.0, "time [h]"
     if span > 600:
@@ -69,13 +76,13 @@ def plot_recordings(
         for rec in recordings:
             if name not in rec:
                 continue
-            t, xlabel = _time_axis(rec.time)
+            t, xlabel = time_axis(rec.time)
             y = rec[name]
             ok = np.isfinite(y)
             ax.plot(t[ok], y[ok], lw=0.9, label=rec.experiment_id or "")
         for label, sig in (overlay or {}).items():
             if name in sig:
-                t, _ = _time_axis(recordings[0].time)
+                t, _ = time_axis(recordings[0].time)
                 ax.plot(t, sig[name], "--", lw=1.1, label=label)
         unit = recordings[0].units.get(name, "")
         ax.set_ylabel(f"{name}\n[{unit}]" if unit else name, fontsize=8)

@@ -17,7 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from thermogym.plotting import _time_axis, plot_recordings, save_figure
+from thermogym.plotting import plot_recordings, save_figure, time_axis
 
 __all__ = [
     "closed_loop_figure",
@@ -82,7 +82,7 @@ def diagnosis_fit_figure(
     """Measured outputs with the nominal and the augmented model's simulations."""
     fig, axes = plt.subplots(len(outputs), 1, figsize=(9, 2.0 * len(outputs) + 0.6), sharex=True)
     axes = np.atleast_1d(axes)
-    t, xl = _time_axis(np.asarray(rec.time))
+    t, xl = time_axis(np.asarray(rec.time))
     for ax, o in zip(axes, outputs, strict=True):
         ax.plot(t, rec[o], ".", ms=3, color="0.3", label="measured (rig)")
         ax.plot(t, nominal[o], "--", color="tab:red", lw=1.2, label="nominal model")
@@ -106,7 +106,7 @@ def closed_loop_figure(
     fig, axes = plt.subplots(len(signals), 1, figsize=(9, 2.1 * len(signals) + 0.6), sharex=True)
     axes = np.atleast_1d(axes)
     for label, run in runs.items():
-        t, xl = _time_axis(np.asarray(run["time"]))
+        t, xl = time_axis(np.asarray(run["time"]))
         for ax, (name, _) in zip(axes, signals, strict=True):
             if name in run:
                 ax.plot(t, run[name], lw=1.0, label=label)

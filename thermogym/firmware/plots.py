@@ -12,18 +12,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
-from thermogym.plotting import save_figure
+from thermogym.plotting import save_figure, time_axis
 
 __all__ = ["plot_virtual_sensor"]
-
-
-def _hours(t: np.ndarray) -> tuple[np.ndarray, str]:
-    span = float(t[-1] - t[0]) if t.size else 0.0
-    if span > 6 * 3600:
-        return t / 3600.0, "time [h]"
-    if span > 600:
-        return t / 60.0, "time [min]"
-    return t, "time [s]"
 
 
 def plot_virtual_sensor(
@@ -67,7 +58,7 @@ def plot_virtual_sensor(
     """
     import matplotlib.pyplot as plt
 
-    t, xlabel = _hours(np.asarray(time, dtype=float))
+    t, xlabel = time_axis(np.asarray(time, dtype=float))
     names = list(estimates)
     rows = len(names) + (1 if measured else 0)
     fig, axes = plt.subplots(rows, 1, figsize=(9, 1.8 * rows + 0.8), sharex=True, squeeze=False)

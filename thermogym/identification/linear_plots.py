@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym.plotting import plt, save_figure
+from thermogym.plotting import plt, save_figure, time_axis
 from thermogym.recording import Recording
 
 __all__ = [
@@ -33,15 +33,6 @@ __all__ = [
     "plot_singular_values",
     "plot_va_matrix",
 ]
-
-
-def _time(t: NDArray[np.float64]) -> tuple[NDArray[np.float64], str]:
-    span = float(t[-1] - t[0]) if t.size else 0.0
-    if span > 6 * 3600:
-        return (t - t[0]) / 3600.0, "time [h]"
-    if span > 600:
-        return (t - t[0]) / 60.0, "time [min]"
-    return t - t[0], "time [s]"
 
 
 def plot_fit(
@@ -68,7 +59,7 @@ def plot_fit(
     """
     n = len(outputs)
     fig, axes = plt.subplots(n, 1, figsize=(9, 1.7 * n + 0.8), sharex=True, squeeze=False)
-    t, xlabel = _time(rec.time)
+    t, xlabel = time_axis(rec.time, relative=True)
     for j, (ax, name) in enumerate(zip(axes[:, 0], outputs, strict=True)):
         ax.plot(t, rec[name], lw=0.9, color="0.2", label="measured")
         lab = "model"

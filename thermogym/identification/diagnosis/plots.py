@@ -24,6 +24,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from thermogym.plotting import time_axis
+
 __all__ = ["report_figures"]
 
 _C_MEAS, _C_NOM, _C_AUG = "0.25", "#d62728", "#1f77b4"
@@ -36,15 +38,6 @@ def _png(fig: plt.Figure) -> bytes:
     finally:
         plt.close(fig)
     return buf.getvalue()
-
-
-def _hours(t: np.ndarray) -> tuple[np.ndarray, str]:
-    span = float(t[-1] - t[0]) if t.size else 0.0
-    if span > 6 * 3600:
-        return (t - t[0]) / 3600.0, "time [h]"
-    if span > 600:
-        return (t - t[0]) / 60.0, "time [min]"
-    return t - t[0], "time [s]"
 
 
 def _top_outputs(rep: Any, n: int = 2) -> list[str]:
@@ -82,7 +75,7 @@ def fig_traces(rep: Any) -> bytes:
         gridspec_kw={"height_ratios": [3, 1.3] * len(outs)},
     )
     for c, s in enumerate(series):
-        t, xl = _hours(s["time"])
+        t, xl = time_axis(s["time"], relative=True)
         for r, o in enumerate(outs):
             j = rep.outputs.index(o)
             ax, axr = axes[2 * r, c], axes[2 * r + 1, c]
