@@ -8,12 +8,19 @@ environments.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 __all__ = ["cache_depends_on", "module_kernels_depend_on"]
+
+
+@functools.cache
+def _source(path: str) -> bytes:
+    # a module's source, read once per process (many kernels depend on the same modules)
+    return Path(path).read_bytes()
 
 
 def cache_depends_on(dispatcher: Any, *modules: ModuleType) -> Any:
@@ -37,7 +44,7 @@ def cache_depends_on(dispatcher: Any, *modules: ModuleType) -> Any:
         return dispatcher
     h = hashlib.sha256(repr(cache_file._source_stamp).encode())
     for m in modules:
-        h.update(Path(str(m.__file__)).read_bytes())
+        h.update(_source(str(m.__file__)))
     cache_file._source_stamp = h.digest()
     closure = getattr(getattr(dispatcher, "py_func", None), "__closure__", None)
     if closure is not None:

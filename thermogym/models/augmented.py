@@ -205,6 +205,12 @@ class _Aug:
                 f"they are {self.exo}"
             )
 
+    def start_at_output(
+        self, p: NDArray[np.float64], u0: NDArray[np.float64], y0: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """:meth:`init` of an effect whose one state starts at its output's first value."""
+        return y0[:, self.col : self.col + 1].copy()
+
     # whole trajectory: arr is u (input side) or y (plant/sensor side), (B, T, ·)
     def init(
         self, p: NDArray[np.float64], u0: NDArray[np.float64], y0: NDArray[np.float64]
@@ -464,8 +470,7 @@ class _Saturating(_Aug):
             )
         ]
 
-    def init(self, p, u0, y0):
-        return y0[:, self.col : self.col + 1].copy()
+    init = _Aug.start_at_output
 
     def _map(self, d, g):
         # inverse of Δ_lin = Δ (1 + γ|Δ|/ΔT_ref): Δ = 2Δ_lin / (1 + sqrt(1 + 4γ|Δ_lin|/ΔT_ref))
@@ -509,8 +514,7 @@ class _ForcedLoss(_Aug):
             )
         ]
 
-    def init(self, p, u0, y0):
-        return y0[:, self.col : self.col + 1].copy()
+    init = _Aug.start_at_output
 
     def _factor(self, u, p):
         return np.maximum(1.0 + p * np.abs(u) / self.u_ref, 1e-3)
@@ -583,8 +587,7 @@ class _Play(_Aug):
             )
         ]
 
-    def init(self, p, u0, y0):
-        return y0[:, self.col : self.col + 1].copy()
+    init = _Aug.start_at_output
 
     def apply(self, arr, u, p, s0, dt):
         y = np.ascontiguousarray(arr[:, :, self.col])
@@ -713,8 +716,7 @@ class _Lag(_Aug):
             )
         ]
 
-    def init(self, p, u0, y0):
-        return y0[:, self.col : self.col + 1].copy()
+    init = _Aug.start_at_output
 
     def apply(self, arr, u, p, s0, dt):
         a = _lag_coeff(p[:, 0], dt)

@@ -808,18 +808,18 @@ def diagnose(
         _finalise_best(
             report,
             best,
-            ctx,
-            tr,
-            va,
-            tr_list,
-            va_list,
-            weights,
-            x0,
-            alpha_adj,
-            max_lag,
-            data,
-            use,
-            max_nfev,
+            ctx=ctx,
+            tr=tr,
+            va=va,
+            tr_list=tr_list,
+            va_list=va_list,
+            weights=weights,
+            x0=x0,
+            alpha_adj=alpha_adj,
+            max_lag=max_lag,
+            data=data,
+            scheme=use,
+            max_nfev=max_nfev,
         )
     else:
         report.best = {
@@ -1127,6 +1127,7 @@ def _explain(
 def _finalise_best(
     report,
     best,
+    *,
     ctx,
     tr,
     va,
