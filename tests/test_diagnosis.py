@@ -32,7 +32,8 @@ def paper_case():
 
 
 def test_catalogue_covers_the_vocabulary():
-    assert set(EFFECT_NAMES) == set(CATALOGUE)
+    # parameter_error is named by the recalibration test, not by an augmentation
+    assert set(EFFECT_NAMES) - {"parameter_error"} == set(CATALOGUE)
     for e in CATALOGUE.values():
         assert len(e.explanation) > 80 and e.signature and e.augmentation
 

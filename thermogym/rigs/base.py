@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError, UnknownNameError
 from thermogym.models.base import Model
+from thermogym.vocabulary import EFFECT_NAMES
 
 __all__ = [
     "EFFECT_NAMES",
@@ -35,24 +36,6 @@ __all__ = [
     "parse_effect",
     "with_hidden_node",
 ]
-
-#: The effect vocabulary of DESIGN.md (stable names; extend, never rename).
-EFFECT_NAMES: tuple[str, ...] = (
-    "none",
-    "transport_delay",
-    "sensor_lag",
-    "sensor_offset",
-    "sensor_drift",
-    "unmeasured_disturbance",
-    "input_nonlinearity",
-    "input_dependent_heat_transfer",
-    "nonlinear_heat_transfer",
-    "backlash",
-    "phase_change",
-    "supply_variation",
-    "missing_dynamics",
-    "time_varying_parameter",
-)
 
 
 @dataclass(frozen=True)
