@@ -35,6 +35,7 @@ from thermogym.models.linear import FOPTDModel, StateSpaceModel
 from thermogym.recording import Recording
 
 __all__ = [
+    "LINEAR_MODELS",
     "OPERATING_POINTS",
     "Experiment",
     "data_entries",
@@ -46,6 +47,9 @@ __all__ = [
     "simulate_recording",
 ]
 
+#: Models :func:`predict_fit` simulates (``ss``, ``foptd`` and, through their exact
+#: state-space realisation, the polynomial and SOPDT models).
+LINEAR_MODELS: tuple[str, ...] = ("ss", "foptd", "sopdt", "arx", "armax", "oe", "bj")
 #: Operating-point modes (see the module docstring).
 OPERATING_POINTS: tuple[str, ...] = ("none", "initial", "mean", "rest")
 
@@ -229,13 +233,18 @@ def predict_fit(
     True
     """
     fit = load_fit(fit)
-    if fit.model not in ("ss", "foptd"):
+    if fit.model not in LINEAR_MODELS:
         raise ConfigError(
-            f"predict_fit handles 'ss' and 'foptd' FitResults, this one is {fit.model!r}"
+            f"predict_fit handles the linear models {list(LINEAR_MODELS)}; this FitResult is "
+            f"of {fit.model!r}"
         )
     op = _settings_op(fit)
     model = fit.build_model()
     theta = fit.theta(model)
+    if not isinstance(model, FOPTDModel | StateSpaceModel):
+        # polynomial (ARX family) and SOPDT models: their exact state-space realisation
+        model = _realized(model, theta, rec.dt)
+        theta = model.theta()
     exo = list(model.exogenous_names)
     outs = list(model.output_names)
     missing = [c for c in exo if c not in rec.columns]
@@ -283,6 +292,27 @@ def predict_fit(
         raise ConfigError(f"x0 is {x0!r}; expected 'fit', 'estimate', 'zero' or 'steady'")
     sim = model.simulate(du, dt, theta, xi, t0=float(rec.time[0]))
     return sim.outputs[0] + y_op
+
+
+def _realized(model: Any, theta: NDArray[np.float64], dt: float) -> StateSpaceModel:
+    """One parameter set of a linear model as a deterministic :class:`StateSpaceModel`."""
+    from thermogym.models.process import discrete_realization
+
+    r, _ = discrete_realization(model, theta, dt)
+    if r.A.shape[1] == 0:  # a pure gain: one inert state
+        A, B, C = np.zeros((1, 1)), np.zeros((1, r.B.shape[2])), np.zeros((r.C.shape[1], 1))
+    else:
+        A, B, C = r.A[0], r.B[0], r.C[0]
+    return StateSpaceModel.from_matrices(
+        A,
+        B,
+        C,
+        r.D[0],
+        dt=dt,
+        inputs=[s.name for s in model.inputs],
+        outputs=list(model.output_names),
+        disturbances=[s.name for s in model.disturbances],
+    )
 
 
 def evaluate_fit(

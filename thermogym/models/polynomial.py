@@ -255,31 +255,47 @@ class PolynomialModel(Model):
         for j in range(p):
             uy = full_units[outs[j]]
             self._ia.append(
-                [add(f"a{k}_{tag(j)}", "1", f"A of {outs[j]}, q^-{k}", outs[j])
-                 for k in range(1, o.na[j] + 1)]
-            )  # fmt: skip
+                [
+                    add(f"a{k}_{tag(j)}", "1", f"A of {outs[j]}, q^-{k}", outs[j])
+                    for k in range(1, o.na[j] + 1)
+                ]
+            )
             bj, fj = [], []
             for i in range(m):
                 ui = full_units[exo[i]]
                 bj.append(
-                    [add(f"b{k}_{tag(j, i)}", f"{uy}/{ui}",
-                         f"B of {exo[i]} -> {outs[j]}, q^-{k + o.nk[j, i]}", outs[j])
-                     for k in range(o.nb[j, i])]
-                )  # fmt: skip
+                    [
+                        add(
+                            f"b{k}_{tag(j, i)}",
+                            f"{uy}/{ui}",
+                            f"B of {exo[i]} -> {outs[j]}, q^-{k + o.nk[j, i]}",
+                            outs[j],
+                        )
+                        for k in range(o.nb[j, i])
+                    ]
+                )
                 fj.append(
-                    [add(f"f{k}_{tag(j, i)}", "1", f"F of {exo[i]} -> {outs[j]}, q^-{k}", outs[j])
-                     for k in range(1, o.nf[j, i] + 1)]
-                )  # fmt: skip
+                    [
+                        add(
+                            f"f{k}_{tag(j, i)}", "1", f"F of {exo[i]} -> {outs[j]}, q^-{k}", outs[j]
+                        )
+                        for k in range(1, o.nf[j, i] + 1)
+                    ]
+                )
             self._ib.append(bj)
             self._if.append(fj)
             self._ic.append(
-                [add(f"c{k}_{tag(j)}", "1", f"C of {outs[j]}, q^-{k}", outs[j])
-                 for k in range(1, o.nc[j] + 1)]
-            )  # fmt: skip
+                [
+                    add(f"c{k}_{tag(j)}", "1", f"C of {outs[j]}, q^-{k}", outs[j])
+                    for k in range(1, o.nc[j] + 1)
+                ]
+            )
             self._id.append(
-                [add(f"d{k}_{tag(j)}", "1", f"D of {outs[j]}, q^-{k}", outs[j])
-                 for k in range(1, o.nd[j] + 1)]
-            )  # fmt: skip
+                [
+                    add(f"d{k}_{tag(j)}", "1", f"D of {outs[j]}, q^-{k}", outs[j])
+                    for k in range(1, o.nd[j] + 1)
+                ]
+            )
         self._layout = self._state_layout()
         n = self._layout[-1]
         super().__init__(signals, params, tuple(f"x_{r}" for r in range(n)))

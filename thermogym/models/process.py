@@ -303,10 +303,16 @@ class SOPDTModel(Model):
                     self._idx[key][j, i] = len(params)
                     params.append(
                         Parameter(
-                            f"{key}_{tag(j, i)}", v, lo, hi, unit,
-                            f"{desc} of {outs[j]} after {exo[i]}", _PROV, outs[j],
+                            f"{key}_{tag(j, i)}",
+                            v,
+                            lo,
+                            hi,
+                            unit,
+                            f"{desc} of {outs[j]} after {exo[i]}",
+                            _PROV,
+                            outs[j],
                         )
-                    )  # fmt: skip
+                    )
         states = [f"z{r}_{tag(j, i)}" for j in range(p) for i in range(m) for r in (1, 2)]
         super().__init__(signals, params, states)
 
@@ -444,11 +450,14 @@ def discrete_realization(
     if isinstance(model, FOPTDModel):
         K, T, tau = model.pair_parameters(th)
         a, b1, b2, d = foptd_zoh(K, T, tau, dt)
-        r, H = _pairs_realization(a[..., None, None], b1[..., None], b2[..., None],
-                                  np.ones(1), d, history)  # fmt: skip
+        r, H = _pairs_realization(
+            a[..., None, None], b1[..., None], b2[..., None], np.ones(1), d, history
+        )
         if model.offsets:
-            raise ConfigError("an FOPTD model with offsets=True has no linear realisation; "
-                              "use its operating point instead")  # fmt: skip
+            raise ConfigError(
+                "an FOPTD model with offsets=True has no linear realisation; "
+                "use its operating point instead"
+            )
         return r, H
     if isinstance(model, StateSpaceModel | PolynomialModel):
         nsub = _substeps(dt, model.dt, "discrete_realization")
