@@ -544,10 +544,7 @@ def _fit_family(
                 structure=family,
                 disturbances=prob.disturbances,
                 dt=prob.dt,
-                **{
-                    k: v[j : j + 1].tolist()
-                    for k, v in kw.items()
-                },
+                **{k: v[j : j + 1].tolist() for k, v in kw.items()},
             )
             th0 = _start(family, prob.us, ys, o, j)
             data = _Data(list(prob.us), [y[:, None] for y in ys], prob.dt)
@@ -810,10 +807,7 @@ def _fold_problems(prob: N4SIDProblem, k: int) -> list[tuple[list, list]]:  # ty
     if len(prob.us) == 1:
         T = prob.us[0].shape[0]
         edges = np.linspace(0, T, k + 1).round().astype(int)
-        return [
-            ([prob.us[0][a:b]], [prob.ys[0][a:b]])
-            for a, b in itertools.pairwise(edges)
-        ]
+        return [([prob.us[0][a:b]], [prob.ys[0][a:b]]) for a, b in itertools.pairwise(edges)]
     raise ConfigError(
         f"{k} folds from {len(prob.us)} recordings: give 1 or at least {k} recordings"
     )

@@ -55,15 +55,15 @@ def delay_inputs(rec: Recording, inputs: Sequence[str], d: int) -> Recording:
 
     Examples
     --------
-    >>> rec = Recording(np.arange(4.0), {"u": np.arange(4.0), "y": np.arange(4.0) ** 2})
-    >>> r = delay_inputs(rec, ["u"], 1)
-    >>> r["u"].tolist(), r["y"].tolist()
-    ([0.0, 1.0, 2.0], [1.0, 4.0, 9.0])
+    >>> rec = Recording(np.arange(12.0), {"u": np.arange(12.0), "y": np.arange(12.0) ** 2})
+    >>> r = delay_inputs(rec, ["u"], 2)
+    >>> r["u"][:3].tolist(), r["y"][:3].tolist()
+    ([0.0, 1.0, 2.0], [4.0, 9.0, 16.0])
     """
     d = integer("input delay", d, lo=0, error=ConfigError)
     if d == 0:
         return rec
-    if rec.n_samples <= d + 8:
+    if rec.n_samples <= d + 2:
         raise IdentificationError(f"{rec.n_samples} samples are too few for an input delay of {d}")
     T = rec.n_samples
     cols = {c: (rec[c][: T - d] if c in inputs else rec[c][d:]) for c in rec.columns}
