@@ -12,6 +12,8 @@ ID                              plant
 ``thermogym/StrutThermal-v0``   feed rate and thermal-elongation compensation (paper 000)
 ``thermogym/TCLab-v0``          the two-heater Temperature Control Lab, identified from
                                 real recordings
+``thermogym/IdentifiedPlant-v0`` any identified linear model of a user's own plant
+                                (``params=FIT`` of ss, foptd, sopdt, arx, armax, oe, bj)
 ==============================  ===========================================================
 
 Without importing this module first, ``gymnasium.make("thermogym.envs:thermogym/TCLab-v0")``
@@ -51,6 +53,7 @@ _ENVS: dict[str, tuple[str, str, str]] = {
     "thermogym/SpindleThermal-v0": ("spindle", "SpindleThermalEnv", "SpindleThermalVectorEnv"),
     "thermogym/StrutThermal-v0": ("strut", "StrutThermalEnv", "StrutThermalVectorEnv"),
     "thermogym/TCLab-v0": ("tclab", "TCLabEnv", "TCLabVectorEnv"),
+    "thermogym/IdentifiedPlant-v0": ("identified", "make_env", "make_vector_env"),
 }
 #: The registered IDs.
 ENV_IDS: tuple[str, ...] = tuple(_ENVS)
