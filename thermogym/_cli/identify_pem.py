@@ -97,7 +97,13 @@ def build_parser(method: str) -> argparse.ArgumentParser:
                 p.add_argument(f"--{k}", help=f"{what} (default: cross-validation)")
         p.add_argument("--focus", choices=("prediction", "simulation"))
     if method in ("arx", "armax", "oe", "bj", "auto"):
-        p.add_argument("--max-order", type=int, default=6, help="largest order tried (default 6)")
+        default = 10 if method in ("arx", "auto") else 6
+        p.add_argument(
+            "--max-order",
+            type=int,
+            default=default,
+            help=f"largest order tried (default {default}; auto: ARX, the others up to 4)",
+        )
         p.add_argument("--max-delay", type=int, default=10, help="largest delay tried [samples]")
     if method == "sopdt":
         p.add_argument("--max-delay-s", type=float, help="largest delay [s]")

@@ -286,7 +286,8 @@ def identify_auto(
     *,
     families: Sequence[str] = AUTO_FAMILIES,
     folds: int = 2,
-    max_order: int = 6,
+    max_order: int = 10,
+    iterative_max_order: int = 4,
     max_delay: int = 10,
     disturbances: Sequence[str] | None = None,
     operating_point_mode: str = "mean",
@@ -306,8 +307,12 @@ def identify_auto(
     recordings, inputs, outputs, disturbances, operating_point_mode, validate
         As :func:`~thermogym.identification.pem.pem`.
     families : sequence of {"arx", "armax", "oe", "bj", "sopdt", "ssest"}
-    folds, max_order, max_delay
+    folds, max_delay
         Of the cross-validations.
+    max_order : int
+        Largest ARX order tried.
+    iterative_max_order : int
+        Largest order of the iteratively fitted families (ARMAX, OE, BJ).
 
     Returns
     -------
@@ -333,12 +338,14 @@ def identify_auto(
     for fam in families:
         try:
             if fam in ("arx", "armax", "oe", "bj"):
+                # least-squares ARX is cheap: it gets the wider order range
+                top = max_order if fam == "arx" else min(max_order, iterative_max_order)
                 r = pem(
                     recs,
                     inputs,
                     outputs,
                     fam,
-                    max_order=max_order,
+                    max_order=top,
                     max_delay=max_delay,
                     folds=folds,
                     **common,
