@@ -61,7 +61,7 @@ from thermogym.errors import ConfigError, IdentificationError
 from thermogym.fitresult import FitResult
 from thermogym.identification.linear_fit import data_entries, evaluate_fit
 from thermogym.identification.metrics import nrmse
-from thermogym.identification.n4sid import N4SIDProblem, prepare_problem
+from thermogym.identification.n4sid import N4SIDProblem, blas_single_thread, prepare_problem
 from thermogym.models.base import Model
 from thermogym.models.linear import StateSpaceModel, _ss_predict_kernel, _ss_simulate_kernel
 from thermogym.models.polynomial import STRUCTURES, PolynomialModel
@@ -217,6 +217,11 @@ def simulation_fit(
     Returns the mean over experiments and the per-output NRMSE (mean over
     experiments), on deviation data.
     """
+    with blas_single_thread():
+        return _simulation_fit(model, theta, us, ys, dt)
+
+
+def _simulation_fit(model, theta, us, ys, dt):  # type: ignore[no-untyped-def]
     ss = _as_ss(model, theta, dt)
     per = []
     for u, y in zip(us, ys, strict=True):
@@ -226,7 +231,8 @@ def simulation_fit(
         except Exception:
             per.append(np.full(y.shape[1], -np.inf))
             continue
-        f = np.atleast_1d(nrmse(y.T, yh.T))
+        with np.errstate(all="ignore"):  # an unstable candidate overflows: scored -inf
+            f = np.atleast_1d(nrmse(y.T, yh.T))
         per.append(np.where(np.isfinite(f), f, -np.inf))
     p = np.mean(np.stack(per), axis=0)
     return float(np.mean(p)), p
@@ -287,6 +293,15 @@ def _residual_batch(
                 rr = type(r)(*(rep(a) for a in r))
                 _predict(rr, rep(At), rep(Bt_), rep(Ct), rep(Dt), rep(Kt), zu, zy, eye, free)
             O = free.reshape(Bt, n, T * p).transpose(0, 2, 1)  # (B, T·p, n)
+        else:
+            O = np.zeros((Bt, T * p, 0))
+        if focus == "simulation":
+            # an unknown constant output offset per experiment: the operating point of a
+            # record that does not average to equilibrium (mean) or a noisy first sample
+            # (initial, rest) is not exactly the model's rest value
+            off = np.tile(np.eye(p), (T, 1))  # (T·p, p)
+            O = np.concatenate([O, np.broadcast_to(off, (Bt, T * p, p))], axis=2)
+        if O.shape[2]:
             with np.errstate(all="ignore"):
                 for b in range(Bt):
                     Ob = O[b]
@@ -306,22 +321,9 @@ def _residual_batch(
 def _predict(r, At, Bt_, Ct, Dt, Kt, u, y, x0, out):  # type: ignore[no-untyped-def]
     """One-step Kalman predictor of a batch (the kernel of StateSpaceModel.predict)."""
     Bt, n = r.A.shape[0], r.A.shape[1]
-    Ah = np.zeros((Bt, n, n))  # horizon 1: A^0 is not used
-    AhB = np.zeros_like(np.swapaxes(Bt_, 1, 2))
-    _ss_predict_kernel(
-        At,
-        Bt_,
-        Ct,
-        Dt,
-        Kt,
-        np.ascontiguousarray(np.swapaxes(Ah, 1, 2)),
-        np.ascontiguousarray(np.swapaxes(AhB, 1, 2)),
-        u,
-        y,
-        np.ascontiguousarray(x0),
-        1,
-        out,
-    )
+    # horizon 1: A^{h−1} = I and A^{h−1} B = B (transposed, as the kernel takes them)
+    eye = np.ascontiguousarray(np.broadcast_to(np.eye(n), (Bt, n, n)))
+    _ss_predict_kernel(At, Bt_, Ct, Dt, Kt, eye, Bt_, u, y, np.ascontiguousarray(x0), 1, out)
 
 
 @dataclass
@@ -371,17 +373,18 @@ def _solve(
         return ((R[1:] - R[0]) / step[:, None]).T
 
     try:
-        sol = least_squares(
-            fun,
-            x0,
-            jac=jac,
-            bounds=(lo, hi),
-            x_scale=scale,
-            method="trf",
-            max_nfev=max_nfev,
-            xtol=1e-10,
-            ftol=1e-10,
-        )
+        with blas_single_thread():  # small matrices: extra BLAS threads only spin
+            sol = least_squares(
+                fun,
+                x0,
+                jac=jac,
+                bounds=(lo, hi),
+                x_scale=scale,
+                method="trf",
+                max_nfev=max_nfev,
+                xtol=1e-10,
+                ftol=1e-10,
+            )
     except ValueError as e:
         raise IdentificationError(f"prediction-error minimisation failed: {e}") from e
     th = full(sol.x[None])[0]
@@ -752,6 +755,11 @@ def pem(
             raise ConfigError(
                 f"{family.upper()} has no {k[1].upper()} polynomial; {k} must not be given"
             )
+    p_, m_ = len(prob.outputs), len(prob.inputs) + len(prob.disturbances)
+    for k, v in given.items():  # check given orders before any fitting
+        if v is not None:
+            shape = (p_, m_) if k in ("nb", "nf", "nk") else (p_,)
+            _orders_arg(k, v, shape, 1 if k == "nb" else 0)
     need = [k for k in ("nb", "nk", *(f"n{x}" for x in has)) if given[k] is None]
     selection: dict[str, Any] = {}
     if need:
@@ -862,7 +870,8 @@ def select_orders(
     1. Delays ``nk`` per input (when not given): ARX models of order
        ``min(2, max_order)`` on each fold, every input's delay scanned over
        ``0..max_delay`` in turn (two passes), scored by the simulation fit on
-       the other folds.
+       the other folds. For ARX itself (cheap) the delays are searched so at
+       every order ``n`` and the order chosen over each order's best delays.
     2. Order ``n = 1..max_order`` of the family with the polynomials tied
        (ARX ``na = nb = n``; ARMAX also ``nc = n``; OE ``nb = nf = n``; BJ
        ``nb = nf = n``, ``nc = nd = min(n, 2)``), scored the same way; the
@@ -899,9 +908,9 @@ def select_orders(
 
         return fit
 
-    if given.get("nk") is None:
+    def delay_search(n0: int) -> tuple[NDArray[np.int64], float, dict[str, list[float]]]:
+        # each input's delay over 0..max_delay in turn, the others fixed (two passes)
         nk = np.ones((p, m), dtype=np.int64)
-        n0 = min(2, max_order)
         scores: dict[str, list[float]] = {}
         best = _cv_score(fd, arx_fit(n0, nk), prob.dt)[0]
         for _ in range(2):
@@ -920,9 +929,43 @@ def select_orders(
                     changed = True
             if not changed:
                 break
-        out["delay_scores"] = scores
-    else:
+        return nk, best, scores
+
+    if given.get("nk") is not None:
         nk = _orders_arg("nk", given["nk"], (p, m), 0)
+    elif family == "arx" and given.get("na") is None and given.get("nb") is None:
+        # ARX is cheap: the delays searched anew at every order, the order by the
+        # parsimonious rule over each order's best delays
+        per = [delay_search(n) for n in range(1, max_order + 1)]
+        va_a = np.array([q[1] for q in per])
+        safe = np.where(np.isfinite(va_a), va_a, -np.inf)
+        if not np.isfinite(safe).any():
+            raise IdentificationError(
+                f"cross-validation of ARX orders 1..{max_order}: no candidate could be fitted "
+                "and simulated on the other fold"
+            )
+        chosen = int(np.argmax(safe >= safe.max() - tolerance)) + 1
+        nk = per[chosen - 1][0]
+        out.update(
+            {
+                "orders": {
+                    "nk": nk.tolist(),
+                    "na": chosen,
+                    "nb": chosen,
+                    "nc": 0,
+                    "nd": 0,
+                    "nf": 0,
+                },
+                "order_scores": va_a.tolist(),
+                "best_order": int(np.argmax(safe)) + 1,
+                "chosen_order": chosen,
+                "delays_per_order": [q[0].tolist() for q in per],
+            }
+        )
+        return out
+    else:
+        nk, _, scores = delay_search(min(2, max_order))
+        out["delay_scores"] = scores
     out_orders: dict[str, Any] = {"nk": nk.tolist()}
 
     def tied(n: int) -> dict[str, Any]:
