@@ -66,7 +66,9 @@ def test_arx_recovers_parameters_and_the_noise_level():
     e = 0.05 * rng.normal(size=u.size)
     # A y = B u + e with A = 1 − 1.5 q^-1 + 0.7 q^-2, B = q^-2 (1 + 0.5 q^-1)
     y = lfilter([0, 0, 1.0, 0.5], [1, -1.5, 0.7], u) + lfilter([1.0], [1, -1.5, 0.7], e)
-    res = pem(_rec(u[:, None], y), ["u"], ["y"], "arx", na=2, nb=2, nk=2, operating_point_mode="none")
+    res = pem(
+        _rec(u[:, None], y), ["u"], ["y"], "arx", na=2, nb=2, nk=2, operating_point_mode="none"
+    )
     _within(res.fit, {"a1_y": -1.5, "a2_y": 0.7, "b0_y": 1.0, "b1_y": 0.5})
     s2 = res.fit.settings["fit_info"]["outputs"]["y"]["sigma2"]
     assert s2 == pytest.approx(0.05**2, rel=0.1)
