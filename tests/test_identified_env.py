@@ -40,7 +40,7 @@ def test_sopdt_env_reproduces_the_analytic_step_response():
     assert obs[0] == pytest.approx(-1.0)  # starts at rest: 20 °C is the bottom of the range
     ys = []
     for _ in range(300):
-        obs, r, term, trunc, info = env.step(np.ones(1, dtype=np.float32))  # P = 10 W
+        obs, r, term, trunc, _info = env.step(np.ones(1, dtype=np.float32))  # P = 10 W
         ys.append(env.unwrapped.true_outputs()["T"])
     t = np.arange(1, 301) - tau
     step = np.where(
@@ -68,9 +68,10 @@ def test_foptd_and_arx_fits_run_at_their_own_period():
     assert env.unwrapped.true_outputs()["y"] == pytest.approx(0.5 * 2 * (1 - np.exp(-t / 30)))
     arx = PolynomialModel(["u"], ["y"], structure="arx", na=1, nb=1, nk=2, dt=5.0)
     fit = FitResult.from_model(
-        arx, {"a1_y": -0.5, "b0_y": 1.0},
+        arx,
+        {"a1_y": -0.5, "b0_y": 1.0},
         settings=_settings({"u": [0, 1], "y": [0, 2]}, {"u": 0.0}, {"y": 0.0}),
-    )  # fmt: skip
+    )
     env = gym.make(ID, params=fit, episode_steps=20)
     assert env.unwrapped.dt == 5.0
     env.reset(seed=0)
@@ -85,10 +86,11 @@ def test_foptd_and_arx_fits_run_at_their_own_period():
 def test_covariance_randomisation_draws_stable_models_per_episode():
     m = PolynomialModel(["u"], ["y"], structure="arx", na=1, nb=1, nk=1)
     fit = FitResult.from_model(
-        m, {"a1_y": -0.95, "b0_y": 0.1},
+        m,
+        {"a1_y": -0.95, "b0_y": 0.1},
         stderr={"a1_y": 0.03, "b0_y": 0.01},
         settings=_settings({"u": [0, 1], "y": [0, 2]}, {"u": 0.0}, {"y": 0.0}),
-    )  # fmt: skip
+    )
     env = gym.make(ID, params=fit, episode_steps=5, randomize="covariance")
     thetas = []
     for seed in (0, 1, 2, 0):
@@ -125,9 +127,10 @@ def test_nonlinear_fits_go_to_their_plant_environment():
 def test_bad_values_are_named(kw, match):
     m = PolynomialModel(["u"], ["y"], structure="arx", na=1, nb=1)
     fit = FitResult.from_model(
-        m, {"a1_y": -0.5, "b0_y": 0.5},
+        m,
+        {"a1_y": -0.5, "b0_y": 0.5},
         settings=_settings({"u": [0, 1], "y": [0, 1]}, {"u": 0.0}, {"y": 0.0}),
-    )  # fmt: skip
+    )
     with pytest.raises(ConfigError, match=match):
         gym.make(ID, params=fit, **kw)
 

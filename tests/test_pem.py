@@ -16,8 +16,8 @@ from scipy.signal import lfilter
 from thermogym.errors import ConfigError
 from thermogym.identification.linear_fit import predict_fit
 from thermogym.identification.metrics import nrmse
-from thermogym.identification.pem import pem, select_orders, sopdt
 from thermogym.identification.n4sid import prepare_problem
+from thermogym.identification.pem import pem, select_orders, sopdt
 from thermogym.models.polynomial import PolynomialModel
 from thermogym.recording import Recording
 
@@ -44,11 +44,21 @@ def test_polynomial_realisation_equals_the_difference_equations():
     rng = np.random.default_rng(0)
     u = rng.normal(size=(300, 2))
     e = rng.normal(size=300)
-    m = PolynomialModel(["u1", "u2"], ["y"], structure="bj", nb=2, nf=[[2, 1]], nc=1, nd=2,
-                        nk=[[1, 0]])  # fmt: skip
-    th = {"b0_y__u1": 0.5, "b1_y__u1": -0.2, "f1_y__u1": -1.2, "f2_y__u1": 0.4,
-          "b0_y__u2": 1.0, "b1_y__u2": 0.3, "f1_y__u2": -0.5,
-          "c1_y": 0.4, "d1_y": -0.9, "d2_y": 0.2}  # fmt: skip
+    m = PolynomialModel(
+        ["u1", "u2"], ["y"], structure="bj", nb=2, nf=[[2, 1]], nc=1, nd=2, nk=[[1, 0]]
+    )
+    th = {
+        "b0_y__u1": 0.5,
+        "b1_y__u1": -0.2,
+        "f1_y__u1": -1.2,
+        "f2_y__u1": 0.4,
+        "b0_y__u2": 1.0,
+        "b1_y__u2": 0.3,
+        "f1_y__u2": -0.5,
+        "c1_y": 0.4,
+        "d1_y": -0.9,
+        "d2_y": 0.2,
+    }
     # G_1 = q^-1 (0.5 − 0.2 q^-1) / (1 − 1.2 q^-1 + 0.4 q^-2), G_2 = (1 + 0.3 q^-1) / (1 − 0.5 q^-1)
     ysim = lfilter([0, 0.5, -0.2], [1, -1.2, 0.4], u[:, 0]) + lfilter([1, 0.3], [1, -0.5], u[:, 1])
     y = ysim + lfilter([1, 0.4], [1, -0.9, 0.2], e)
@@ -80,13 +90,32 @@ def test_armax_and_bj_recover_their_noise_models():
     e = 0.1 * rng.normal(size=u.size)
     # ARMAX: (1 − 0.8 q^-1) y = 0.5 q^-1 u + (1 + 0.6 q^-1) e
     y = lfilter([0, 0.5], [1, -0.8], u) + lfilter([1, 0.6], [1, -0.8], e)
-    res = pem(_rec(u[:, None], y), ["u"], ["y"], "armax", na=1, nb=1, nc=1, nk=1,
-              operating_point_mode="none")  # fmt: skip
+    res = pem(
+        _rec(u[:, None], y),
+        ["u"],
+        ["y"],
+        "armax",
+        na=1,
+        nb=1,
+        nc=1,
+        nk=1,
+        operating_point_mode="none",
+    )
     _within(res.fit, {"a1_y": -0.8, "b0_y": 0.5, "c1_y": 0.6})
     # BJ: y = 0.3 q^-1 / (1 − 0.7 q^-1) u + (1 + 0.5 q^-1)/(1 − 0.9 q^-1) e
     y = lfilter([0, 0.3], [1, -0.7], u) + lfilter([1, 0.5], [1, -0.9], e)
-    res = pem(_rec(u[:, None], y), ["u"], ["y"], "bj", nb=1, nf=1, nc=1, nd=1, nk=1,
-              operating_point_mode="none")  # fmt: skip
+    res = pem(
+        _rec(u[:, None], y),
+        ["u"],
+        ["y"],
+        "bj",
+        nb=1,
+        nf=1,
+        nc=1,
+        nd=1,
+        nk=1,
+        operating_point_mode="none",
+    )
     _within(res.fit, {"b0_y": 0.3, "f1_y": -0.7, "c1_y": 0.5, "d1_y": -0.9})
     assert res.fit.settings["fit_info"]["outputs"]["y"]["sigma2"] == pytest.approx(0.01, rel=0.1)
 
@@ -98,10 +127,13 @@ def test_oe_recovers_a_two_input_system_and_simulates_at_the_noise_ceiling():
     sigma = 0.1
     y = clean + sigma * rng.normal(size=clean.size)
     rec = _rec(u, y, ("u1", "u2"))
-    res = pem(rec, ["u1", "u2"], ["y"], "oe", nb=[[1, 2]], nf=1, nk=[[1, 2]],
-              operating_point_mode="none")  # fmt: skip
-    _within(res.fit, {"b0_y__u1": 0.2, "f1_y__u1": -0.9, "b0_y__u2": 0.5, "b1_y__u2": 0.2,
-                      "f1_y__u2": -0.6})  # fmt: skip
+    res = pem(
+        rec, ["u1", "u2"], ["y"], "oe", nb=[[1, 2]], nf=1, nk=[[1, 2]], operating_point_mode="none"
+    )
+    _within(
+        res.fit,
+        {"b0_y__u1": 0.2, "f1_y__u1": -0.9, "b0_y__u2": 0.5, "b1_y__u2": 0.2, "f1_y__u2": -0.6},
+    )
     # simulated fit equals the fit of the noise-free truth to the noisy data (noise ceiling)
     yh = predict_fit(res.fit, rec)[:, 0]
     ceiling = nrmse(y, clean)
@@ -141,8 +173,14 @@ def test_ssest_chooses_a_feedthrough_when_the_output_answers_within_the_sample()
     true = StateSpaceModel.from_matrices([[0.9]], [[0.1]], [[1.0]], [[-0.8]], dt=1.0)
     u = _prbs(rng, 800, 6)
     y = true.simulate(u[:, None], 1.0).outputs[0, :, 0] + 0.01 * rng.normal(size=u.size)
-    res = ssest(_rec(u[:, None], y), ["u"], ["y"], orders=range(1, 3), max_delay=1,
-                operating_point_mode="none")  # fmt: skip
+    res = ssest(
+        _rec(u[:, None], y),
+        ["u"],
+        ["y"],
+        orders=range(1, 3),
+        max_delay=1,
+        operating_point_mode="none",
+    )
     st = res.fit.settings
     assert st["feedthrough"] is True and st["input_delay"] == 0
     assert res.fit.metrics["train"]["mnrmse"] > 0.98
@@ -189,15 +227,60 @@ def test_cli_identify_oe_and_bad_values(tmp_path, capsys):
     path = tmp_path / "run.csv"
     write_recording(_rec(u[:, None], y), path)
     out = tmp_path / "oe.json"
-    rc = main(["identify", "oe", str(path), "--inputs", "u", "--outputs", "y", "--nb", "1",
-               "--nf", "1", "--nk", "2", "--operating-point", "mean", "--out", str(out)])  # fmt: skip
+    rc = main(
+        [
+            "identify",
+            "oe",
+            str(path),
+            "--inputs",
+            "u",
+            "--outputs",
+            "y",
+            "--nb",
+            "1",
+            "--nf",
+            "1",
+            "--nk",
+            "2",
+            "--operating-point",
+            "mean",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     fit = FitResult.load(out)
     assert fit.model == "oe" and fit.parameters["f1_y"] == pytest.approx(-0.7, abs=0.01)
     assert fit.settings["signal_ranges"]["u"] == [-1.0, 1.0]
-    rc = main(["identify", "oe", str(path), "--inputs", "u", "--outputs", "y", "--nk", "x",
-               "--out", str(tmp_path / "bad.json")])  # fmt: skip
+    rc = main(
+        [
+            "identify",
+            "oe",
+            str(path),
+            "--inputs",
+            "u",
+            "--outputs",
+            "y",
+            "--nk",
+            "x",
+            "--out",
+            str(tmp_path / "bad.json"),
+        ]
+    )
     assert rc == 2 and "--nk" in capsys.readouterr().err
-    rc = main(["identify", "ssest", str(path), "--inputs", "u", "--outputs", "y", "--orders",
-               "3:1", "--out", str(tmp_path / "bad.json")])  # fmt: skip
+    rc = main(
+        [
+            "identify",
+            "ssest",
+            str(path),
+            "--inputs",
+            "u",
+            "--outputs",
+            "y",
+            "--orders",
+            "3:1",
+            "--out",
+            str(tmp_path / "bad.json"),
+        ]
+    )
     assert rc == 2 and "--orders" in capsys.readouterr().err
