@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from thermogym.estimation import VirtualSensor
 from thermogym.firmware.codegen import TARGETS, footprint
 from thermogym.firmware.export import export
 from thermogym.firmware.reference import random_stable_model
@@ -48,7 +49,6 @@ from thermogym.firmware.toolchain import (
     run_host_test,
     run_simavr,
 )
-from thermogym.models.estimation import VirtualSensor
 
 #: simavr cycles per multiply-accumulate of the step, measured for the order-8 3I5O
 #: observer (56 644 cycles, 143 MACs): used only for estimates without the AVR tools.

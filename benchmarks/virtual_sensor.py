@@ -2,7 +2,7 @@
 
 Spindle (paper ``001_6d13a2cd04f5de5e.txt``, section 3.3). Order-8 models are
 identified by N4SID on the rig's run-in day ``D¹_6000`` (clean 1 Hz channels)
-in the formulations of :mod:`thermogym.models.estimation`:
+in the formulations of :mod:`thermogym.estimation`:
 
 * ``1I7O-KF`` — speed and ambient in, all seven temperatures out, the two
   surface temperatures *measured*: the steady-state Kalman observer corrects
@@ -51,9 +51,9 @@ from pathlib import Path
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from thermogym.estimation import AXT211WaxUKF, VirtualSensor, consistency
 from thermogym.identification.metrics import nrmse
 from thermogym.identification.n4sid import n4sid
-from thermogym.models.estimation import AXT211WaxUKF, VirtualSensor, consistency
 from thermogym.recording import Recording
 from thermogym.rigs import get_rig
 
