@@ -31,10 +31,10 @@ import numpy as np
 from thermogym.identification.coordinator import run_identification
 from thermogym.identification.greybox_axt211 import THERMAL, GreyboxConfig, reproduce_paper002
 from thermogym.identification.problem import FreeParameter, Problem
-from thermogym.identification.strut_study import RATIOS
 from thermogym.models.axt211 import AXT211
 from thermogym.models.strut import StrutModel
 from thermogym.rigs import run_experiment
+from thermogym.studies.strut import RATIOS
 
 
 def gradient_comparison(seed: int) -> dict:

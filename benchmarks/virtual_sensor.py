@@ -11,7 +11,7 @@ in the formulations of :mod:`thermogym.estimation`:
   way of predicting, and the named peer of the ratios printed;
 * ``3I5O`` — Table 6's 3I5O with surface temperatures as *inputs*
   (identified on ambient-subtracted data, used with ``reference="T_amb"``),
-  from :func:`thermogym.identification.spindle_study.virtual_sensor_fit`;
+  from :func:`thermogym.studies.spindle.virtual_sensor_fit`;
 * ``3I5O+amb`` — the same with the ambient as a fourth input.
 
 The process-noise scale of each sensor is tuned on the other run-in day
@@ -94,7 +94,7 @@ def identify(train: Recording) -> dict:
     r4 = n4sid(train, ["speed", *SURFACE, "T_amb"], HIDDEN, order=8, disturbances=["T_amb"])
     fits = {"1I7O": r1.fit, "3I5O+amb": r4.fit}
     try:
-        from thermogym.identification.spindle_study import virtual_sensor_fit
+        from thermogym.studies.spindle import virtual_sensor_fit
 
         fits["3I5O"] = virtual_sensor_fit("3I5O", order=8)
     except ImportError:

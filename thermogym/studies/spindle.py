@@ -395,6 +395,6 @@ def virtual_sensor_fit(
     fit.settings["preparation"] = {
         **PREPARE.to_dict(),
         "note": "temperatures are rises above T_amb [K]; prepare raw data with "
-        "thermogym.identification.spindle_study.PREPARE",
+        "thermogym.studies.spindle.PREPARE",
     }
     return fit
