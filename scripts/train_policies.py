@@ -1,4 +1,4 @@
-"""Train the PPO policies shipped in this folder (the ``ppo`` benchmark preset).
+"""Train the PPO policies shipped in ``thermogym/controllers/policies/`` (``ppo`` preset).
 
 Each policy is trained on the *identified model* environment (``plant="model"``,
 the package's nominal FitResult; its fingerprint is in the ``.json``) and
@@ -19,7 +19,7 @@ the final evaluation against a random policy (:func:`thermogym.controllers.rl.tr
 
 Usage::
 
-    python thermogym/controllers/policies/train_policies.py [--only valve|room] [--steps N]
+    python scripts/train_policies.py [--only valve|room] [--steps N]
         [--ship best|final] [--no-train]
 
 ``--ship best`` (default) ships the policy of the best periodic evaluation
@@ -39,7 +39,8 @@ import numpy as np
 from thermogym._fileio import atomic_write_text
 from thermogym.controllers.rl import RLConfig, evaluate, train
 
-HERE = Path(__file__).resolve().parent
+#: Where the ``ppo`` preset reads the shipped policies (package data of the checkout).
+POLICIES = Path(__file__).resolve().parents[1] / "thermogym" / "controllers" / "policies"
 
 CONFIGS = {
     "valve": RLConfig(
@@ -78,7 +79,7 @@ CONFIGS = {
 
 
 def ship(name: str, work: Path, which: str) -> dict:
-    """Copy the final or the best policy of a finished run here, with its provenance."""
+    """Copy the final or the best policy of a finished run to POLICIES, with its provenance."""
     cfg = CONFIGS[name]
     run = work / name
     meta = json.loads((run / "policy.json").read_text(encoding="utf-8"))
@@ -109,13 +110,13 @@ def ship(name: str, work: Path, which: str) -> dict:
             }
             src = best
     stem = f"{cfg.env_id.split('/')[1].split('-v')[0].lower()}_{cfg.algo}"
-    shutil.copyfile(src, HERE / f"{stem}.zip")
-    atomic_write_text(HERE / f"{stem}.json", json.dumps(meta, indent=1, default=str) + "\n")
+    shutil.copyfile(src, POLICIES / f"{stem}.zip")
+    atomic_write_text(POLICIES / f"{stem}.json", json.dumps(meta, indent=1, default=str) + "\n")
     return meta
 
 
 def main() -> None:
-    """Train the policies and copy the shipped ``.zip`` / ``.json`` here."""
+    """Train the policies and copy the shipped ``.zip`` / ``.json`` to POLICIES."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", choices=list(CONFIGS))
     ap.add_argument("--steps", type=int, help="override total_timesteps")
