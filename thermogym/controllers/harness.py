@@ -37,7 +37,8 @@ Sim-to-real
 With ``plants=("model", "rig")`` every episode runs on the identified model
 and on the virtual rig (the true plant, its sensors, an actuator specimen):
 controllers tuned on identified models meet the plant they were not tuned
-on, and the report shows the gap (:func:`sim_to_real_gap`).
+on, and the report shows the gap
+(:func:`~thermogym.controllers.tables.sim_to_real_gap`).
 """
 
 from __future__ import annotations
@@ -57,6 +58,7 @@ import numpy as np
 
 from thermogym import __version__
 from thermogym.controllers.scenarios import Scenario, get_scenario
+from thermogym.controllers.tables import KEY_COLUMNS
 from thermogym.errors import ConfigError
 
 __all__ = [
@@ -65,14 +67,11 @@ __all__ = [
     "EpisodeSpec",
     "run_benchmark",
     "run_episode",
-    "sim_to_real_gap",
 ]
 
 log = logging.getLogger("thermogym.controllers")
 
 BACKENDS = ("local", "ray", "serial")
-#: Columns that identify an episode (the rest are results).
-KEY_COLUMNS = ("env_id", "scenario", "controller", "plant", "seed")
 
 
 @dataclass(frozen=True)
@@ -546,45 +545,6 @@ def _check_buildable(env_id: str, specs: list[EpisodeSpec]) -> None:
         env = gym.make(env_id, **kw)
         build_controller(s.controller, env, env_kwargs=kw, options=s.options)
         env.close()
-
-
-def sim_to_real_gap(table: Any, kpis: Sequence[str] | None = None) -> Any:
-    """Mean KPI on the rig minus the mean on the identified model, per scenario and controller.
-
-    Parameters
-    ----------
-    table : pandas.DataFrame
-        A benchmark table with both plants.
-    kpis : sequence of str, optional
-        Columns (default: every numeric KPI column).
-
-    Returns
-    -------
-    pandas.DataFrame
-        Index (scenario, controller); columns ``<kpi>_model``, ``<kpi>_rig``,
-        ``<kpi>_gap``. Empty when the table lacks either plant.
-    """
-    import pandas as pd
-
-    if not {"model", "rig"} <= set(table["plant"]):
-        return pd.DataFrame()
-    num = [c for c in (kpis or table.select_dtypes("number").columns) if c not in KEY_COLUMNS]
-    num = [c for c in num if c not in ("scenario_version", "steps", "wall_s")]
-    m = table.groupby(["scenario", "controller", "plant"], sort=False)[num].mean()
-    rows = []
-    for (scen, ctrl), grp in m.groupby(level=[0, 1], sort=False):
-        plants = grp.index.get_level_values(2)
-        if "model" not in plants or "rig" not in plants:
-            continue
-        a = grp.xs("model", level=2).iloc[0]
-        b = grp.xs("rig", level=2).iloc[0]
-        row: dict[str, Any] = {"scenario": scen, "controller": ctrl}
-        for c in num:
-            row[f"{c}_model"] = a[c]
-            row[f"{c}_rig"] = b[c]
-            row[f"{c}_gap"] = b[c] - a[c]
-        rows.append(row)
-    return pd.DataFrame(rows).set_index(["scenario", "controller"]) if rows else pd.DataFrame()
 
 
 def episode_specs_dict(res: BenchmarkResult) -> list[dict[str, Any]]:

@@ -50,6 +50,7 @@ from thermogym.errors import (
     ShapeError,
     UnknownNameError,
 )
+from thermogym.identification.jacobian import residual_jacobian
 from thermogym.identification.metrics import fit_report
 from thermogym.identification.simmodel import SimBatch, SimModel, ThermogymModel
 from thermogym.models._blas import blas_threads
@@ -847,7 +848,7 @@ class Problem:
             consistent). ``"exact"``: forward sensitivities of the model
             (:mod:`~thermogym.identification.optimizers.sensitivities`), one
             augmented simulation per experiment. ``"auto"``: exact when the
-            model offers it.
+            model offers it. Computed by :mod:`~thermogym.identification.jacobian`.
         diff : {"forward", "central"}
             Finite-difference scheme.
         step : float, optional
@@ -869,8 +870,6 @@ class Problem:
         ConfigError
             ``method="exact"`` for a model without sensitivities.
         """
-        from thermogym.identification.optimizers.local import residual_jacobian
-
         return residual_jacobian(self, z, method=method, diff=diff, step=step, r0=r0)
 
     # ------------------------------------------------------------- reporting
