@@ -548,6 +548,7 @@ class FitResult:
         ParameterError
             A parameter name is unknown to the model.
         """
+        # the registry loads every plant model (~0.5 s): only when one is built
         from thermogym.models.registry import get_model
 
         model = get_model(self.model, **self.model_config)

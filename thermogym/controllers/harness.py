@@ -46,17 +46,25 @@ from __future__ import annotations
 import json
 import logging
 import math
+import multiprocessing as mp
 import os
 import sys
 import time
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
+import pandas as pd
+from tqdm.auto import tqdm
 
+import thermogym.envs  # noqa: F401 - registers the environments
 from thermogym import __version__
+from thermogym.controllers.presets import build_controller, expand_controllers
+from thermogym.controllers.report import write_report
 from thermogym.controllers.scenarios import Scenario, get_scenario
 from thermogym.controllers.tables import KEY_COLUMNS
 from thermogym.errors import ConfigError
@@ -179,11 +187,6 @@ def run_episode(spec: EpisodeSpec) -> dict[str, Any]:
     >>> out["row"]["controller"], out["row"]["steps"], out["row"]["switch_cycles"] > 10
     ('onoff', 1440, True)
     """
-    import gymnasium as gym
-
-    import thermogym.envs  # noqa: F401 - registers the environments
-    from thermogym.controllers.presets import build_controller
-
     try:  # deterministic, and no oversubscription of the cores by torch / BLAS
         import torch
 
@@ -340,16 +343,11 @@ def _specs(
 
 
 def _progress(total: int, show: bool | None) -> Any:
-    from tqdm.auto import tqdm
-
     disable = (not sys.stderr.isatty()) if show is None else not show
     return tqdm(total=total, desc="episodes", unit="ep", disable=disable, leave=False)
 
 
 def _run_local(specs: list[EpisodeSpec], workers: int, bar: Any) -> list[dict[str, Any]]:
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
     results: list[dict[str, Any] | None] = [None] * len(specs)
     ctx = mp.get_context("spawn")
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
@@ -463,10 +461,6 @@ def run_benchmark(
     >>> bool((res.table["stroke_rmse_mm"] > 0).all())
     True
     """
-    import pandas as pd
-
-    from thermogym.controllers.presets import expand_controllers
-
     if backend not in BACKENDS:
         raise ConfigError(f"backend is {backend!r}; expected one of {BACKENDS}")
     if record not in ("first", "all", "none"):
@@ -522,19 +516,12 @@ def run_benchmark(
     res = BenchmarkResult(table, trajs, specs, backend, n_workers, seconds)
     log.info("benchmark of %d episodes in %.1f s (%s)", len(specs), seconds, backend)
     if out is not None and report:
-        from thermogym.controllers.report import write_report
-
         res.files = write_report(res, Path(out), title=title)
     return res
 
 
 def _check_buildable(env_id: str, specs: list[EpisodeSpec]) -> None:
     """Build every (scenario, controller, plant) once before the grid: fail early."""
-    import gymnasium as gym
-
-    import thermogym.envs  # noqa: F401
-    from thermogym.controllers.presets import build_controller
-
     seen: set[tuple[str, str, str]] = set()
     for s in specs:
         key = (s.scenario, s.controller, s.plant)

@@ -29,6 +29,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
+
 from thermogym import __version__
 from thermogym._fileio import atomic_write, atomic_write_text
 from thermogym.controllers.tables import (
@@ -142,8 +144,6 @@ def _write_table(table: Any, path_csv: Path, path_parquet: Path) -> None:
 
 
 def _trajectories_frame(res: Any) -> Any:
-    import pandas as pd
-
     frames = []
     for (scen, ctrl, plant, seed), tr in res.trajectories.items():
         df = pd.DataFrame(tr)
@@ -188,7 +188,7 @@ def write_report(
         files["trajectories.parquet"] = out / "trajectories.parquet"
     figs: dict[str, list[str]] = {}
     if figures:
-        from thermogym.controllers import plots
+        from thermogym.controllers import plots  # matplotlib (~1 s) only when figures are drawn
 
         made = plots.benchmark_figures(res, out / "figures")
         for key, paths in made.items():

@@ -34,6 +34,7 @@ import math
 import os
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import fields
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -409,7 +410,7 @@ class Engine:
 
 # ----------------------------------------------------------------- rendering
 def _render(env: Any, history: list[NDArray[np.float64]], mode: str) -> Any:
-    from thermogym.envs import envplots
+    from thermogym.envs import envplots  # matplotlib only when rendering
 
     e: Engine = env._e
     data = np.array(history) if history else np.zeros((0, len(e.sig_names)))
@@ -833,8 +834,6 @@ def build_config(cfg_cls: type, env: str, kwargs: Mapping[str, Any]) -> Any:
     TypeError
         An unknown keyword argument (named, with the accepted ones).
     """
-    from dataclasses import fields
-
     names = [f.name for f in fields(cfg_cls)]
     unknown = [k for k in kwargs if k not in names]
     if unknown:

@@ -188,7 +188,7 @@ def resolve_plant(
             f"{env}: there is no virtual rig for this plant (its real plant is physical "
             "hardware); use plant='model'"
         )
-    from thermogym.rigs import get_rig
+    from thermogym.rigs import get_rig  # the rigs (~0.4 s) load only for plant='rig'
 
     r = get_rig(rig, rig_effects)
     if specimen:

@@ -6,11 +6,13 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from numpy.typing import ArrayLike, NDArray
 
 from thermogym.errors import ConfigError, ParameterError, ShapeError, UnknownNameError
 from thermogym.estimation._linalg import _names, _psd_sqrt_rows
 from thermogym.estimation.observer import Estimate, ObserverStatus
+from thermogym.models.axt211 import AXT211
 from thermogym.models.base import ThetaLike
 
 __all__ = ["AXT211WaxUKF"]
@@ -107,8 +109,6 @@ class AXT211WaxUKF:
         beta: float = 2.0,
         kappa: float = 0.0,
     ) -> None:
-        from thermogym.models.axt211 import AXT211
-
         self.model = AXT211() if model is None else model
         if not isinstance(self.model, AXT211):
             raise ConfigError(
@@ -187,8 +187,6 @@ class AXT211WaxUKF:
         return y[idx]
 
     def _make(self, x0: NDArray[np.float64], P0: NDArray[np.float64]) -> Any:
-        from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
-
         outer = self
 
         class _BatchedUKF(UnscentedKalmanFilter):  # type: ignore[misc]

@@ -90,6 +90,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 import scipy.optimize
+from filterpy.kalman import KalmanFilter
 from numpy.typing import ArrayLike, NDArray
 
 from thermogym.errors import ConfigError, ParameterError, ShapeError, UnknownNameError
@@ -629,8 +630,6 @@ class VirtualSensor:
         P0 : array_like, shape (n, n), optional
             Default: the steady-state prior covariance.
         """
-        from filterpy.kalman import KalmanFilter
-
         n, m, q = self.n_states, len(self.exogenous_names), len(self.measured_names)
         kf = KalmanFilter(dim_x=n, dim_z=max(q, 1), dim_u=m + q)
         R, S = self.noise.R, self.noise.S

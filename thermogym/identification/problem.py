@@ -52,6 +52,7 @@ from thermogym.errors import (
 )
 from thermogym.identification.jacobian import residual_jacobian
 from thermogym.identification.metrics import fit_report
+from thermogym.identification.optimizers.sensitivities import sensitivity_function
 from thermogym.identification.simmodel import SimBatch, SimModel, ThermogymModel
 from thermogym.models._blas import blas_threads
 from thermogym.models.base import Model
@@ -822,8 +823,6 @@ class Problem:
         See :func:`thermogym.identification.optimizers.sensitivities.sensitivity_function`.
         """
         if not self._sensitivity_checked:
-            from thermogym.identification.optimizers.sensitivities import sensitivity_function
-
             self._sensitivity_fn = sensitivity_function(self.model)
             self._sensitivity_checked = True
         return self._sensitivity_fn

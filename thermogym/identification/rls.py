@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from thermogym.errors import ConfigError, IdentificationError, ShapeError
-from thermogym.fitresult import FitResult
+from thermogym.fitresult import FitResult, load_fit
 from thermogym.models.linear import FOPTDModel, discrete_to_foptd
 
 __all__ = ["RLS", "RecursiveFOPTD"]
@@ -309,8 +309,6 @@ class RecursiveFOPTD:
         ``p0`` is small here: the batch fit is trusted, the recursion only
         follows changes.
         """
-        from thermogym.fitresult import load_fit
-
         f = load_fit(fit)
         if f.model != "foptd":
             raise ConfigError(f"from_fit needs a 'foptd' FitResult, got {f.model!r}")

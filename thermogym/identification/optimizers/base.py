@@ -22,14 +22,16 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
 from thermogym.errors import ConfigError, IdentificationError
-from thermogym.identification.problem import Evaluation, Problem
+
+if TYPE_CHECKING:  # the problem imports the sensitivities of this package at run time
+    from thermogym.identification.problem import Evaluation, Problem
 
 __all__ = ["HistoryEntry", "StopCriteria", "StopSearch", "Tracker"]
 
