@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import nonnegative
 from thermogym.errors import ConfigError, ParameterError
 from thermogym.fitresult import FitResult, load_fit
 from thermogym.models.base import Model
@@ -244,8 +245,7 @@ def make_sampler(
     """
     if method not in SAMPLING:
         raise ConfigError(f"randomisation method is {method!r}; expected one of {SAMPLING}")
-    if not (np.isfinite(scale) and scale >= 0):
-        raise ParameterError(f"randomisation scale is {scale!r}; expected a number >= 0")
+    nonnegative("randomisation scale", scale, text=False)
     fit._check_model(model, check_version=False)
     if names is not None:
         unknown = [n for n in names if n not in model.param_names]

@@ -93,6 +93,7 @@ import scipy.optimize
 from filterpy.kalman import KalmanFilter
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import nonnegative
 from thermogym.errors import ConfigError, ParameterError, ShapeError, UnknownNameError
 from thermogym.estimation._linalg import _names
 from thermogym.estimation.gains import NoiseModel, steady_state_gains
@@ -128,8 +129,7 @@ def _input_referred_q(
     confined to the controllable subspace — an unmeasured heat flow or ambient
     error acts exactly there.
     """
-    if not (np.isfinite(process_std) and process_std >= 0):
-        raise ParameterError(f"process_std is {process_std!r}; expected >= 0")
+    nonnegative("process_std", process_std, text=False)
     n, m = B.shape
     try:
         G = C @ np.linalg.solve(np.eye(n) - A, B) + D

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import in_range
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.models._blas import blas_threads
 
@@ -128,8 +129,8 @@ def residual_jacobian(
         r, J = _exact_jacobian(problem, z)
         return r, J, 1
     h = step if step is not None else (1e-7 if diff == "forward" else 1e-5)
-    if not (np.isfinite(h) and 0 < h < 0.5):
-        raise ConfigError(f"fd_step is {h!r}, expected a step in unit coordinates in (0, 0.5)")
+    # a step in unit coordinates (each parameter scaled to [0, 1] across its bounds)
+    in_range("fd_step", h, 0.0, 0.5, lo_open=True, hi_open=True, error=ConfigError, text=False)
     u0 = problem.to_unit(z)
     eye = np.eye(P)
     # step towards the interior when a bound is near

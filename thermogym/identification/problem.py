@@ -42,6 +42,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import (
     ConfigError,
     ExternalModelError,
@@ -364,8 +365,7 @@ class Problem:
         if objective not in OBJECTIVES:
             raise ConfigError(f"objective is {objective!r}, expected one of {OBJECTIVES}")
         self.objective = objective
-        if not (math.isfinite(max_batch_mb) and max_batch_mb > 0):
-            raise ConfigError(f"max_batch_mb is {max_batch_mb!r}, expected a positive number")
+        positive("max_batch_mb", max_batch_mb, error=ConfigError, text=False)
         self._max_bytes = float(max_batch_mb) * 2**20
         self.experiments: tuple[Recording, ...] = self._check_experiments(experiments)
         self._sim_names = tuple(model.param_names)

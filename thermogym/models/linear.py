@@ -95,6 +95,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import ConfigError, ParameterError, ShapeError, SimulationError
 from thermogym.models.base import Model, Parameter, Signal, ThetaLike
 
@@ -174,8 +175,7 @@ def _wide(v: float) -> tuple[float, float]:
 
 
 def _substeps(dt: float, model_dt: float, what: str) -> int:
-    if not (np.isfinite(dt) and dt > 0):
-        raise ShapeError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    dt = positive("dt", dt, unit="s", error=ShapeError, text=False)
     r = dt / model_dt
     n = round(r)
     if n < 1 or abs(r - n) > 1e-9 * max(r, 1.0):
@@ -477,8 +477,7 @@ def c2d_zoh(
     Ba = np.asarray(B, dtype=float)
     m = Ba.shape[1] if Ba.ndim == 2 else -1
     Ba = _matrix("B", Ba, (n, m), "n_states, n_inputs")
-    if not (np.isfinite(dt) and dt > 0):
-        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    dt = positive("dt", dt, unit="s", text=False)
     M = np.zeros((n + m, n + m))
     M[:n, :n] = Aa * dt
     M[:n, n:] = Ba * dt
@@ -527,8 +526,7 @@ def d2c_zoh(
     Ba = np.asarray(B, dtype=float)
     m = Ba.shape[1] if Ba.ndim == 2 else -1
     Ba = _matrix("B", Ba, (n, m), "n_states, n_inputs")
-    if not (np.isfinite(dt) and dt > 0):
-        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    dt = positive("dt", dt, unit="s", text=False)
     lam = np.linalg.eigvals(Aa)
     bad = (np.abs(lam.imag) <= 1e-12 * np.maximum(1.0, np.abs(lam))) & (lam.real <= 0)
     if bad.any():
@@ -648,8 +646,7 @@ class StateSpaceModel(Model):
             n_states = np.shape(A)[0] if A is not None and np.ndim(A) == 2 else 1
         if int(n_states) != n_states or n_states < 1:
             raise ConfigError(f"n_states is {n_states!r}; expected a positive integer")
-        if not (np.isfinite(dt) and dt > 0):
-            raise ConfigError(f"dt is {dt!r}; expected a positive sample period in seconds")
+        positive("dt", dt, unit="s", error=ConfigError, text=False)
         if fit_x0 and steady_start:
             raise ConfigError("fit_x0 and steady_start both set; choose one starting state")
         n, m, p = int(n_states), len(ins) + len(dis), len(outs)
@@ -1252,8 +1249,7 @@ def _foptd_arrays(
     K: ArrayLike, T: ArrayLike, tau: ArrayLike, dt: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     Ka, Ta, ta = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (K, T, tau)))
-    if not (np.isfinite(dt) and dt > 0):
-        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    dt = positive("dt", dt, unit="s", text=False)
     for name, v in (("K", Ka), ("T", Ta), ("tau", ta)):
         if not np.isfinite(v).all():
             raise ParameterError(f"{name} contains {v[~np.isfinite(v)].flat[0]!r}; expected finite")
@@ -1409,8 +1405,7 @@ def discrete_to_foptd(
     [2.0, 9.4912, 3.0]
     """
     aa, ba, da = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (a, b, d)))
-    if not (np.isfinite(dt) and dt > 0):
-        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    dt = positive("dt", dt, unit="s", text=False)
     bad = ~((aa > 0) & (aa < 1))
     if bad.any():
         raise ParameterError(
