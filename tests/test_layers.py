@@ -29,20 +29,23 @@ PACKAGE = ROOT / "thermogym"
 #: imported by the others.
 FOUNDATION = frozenset({"thermogym", "errors", "_checks", "vocabulary", "_jitcache", "_fileio"})
 
+#: Shared data contracts and figures: every part above the models may use them.
+DATA = frozenset({"recording", "fitresult", "datasets", "plotting"})
+
 #: What each part may import besides itself and the foundation (DESIGN.md, "Dependency
-#: direction"). Listed bottom-up; a part lists only parts above it in this table.
+#: direction"; the README's picture). Listed bottom-up; no part lists one above it.
 MAY_IMPORT: dict[str, frozenset[str]] = {
     "models": frozenset(),
     "recording": frozenset({"models"}),
     "fitresult": frozenset({"models", "recording"}),
     "datasets": frozenset({"recording"}),
     "plotting": frozenset({"recording"}),
-    "rigs": frozenset({"models", "recording"}),  # models: signal names only (see below)
-    "estimation": frozenset({"models", "recording"}),
-    "identification": frozenset({"models", "recording", "fitresult", "datasets", "plotting"}),
-    "envs": frozenset({"models", "recording", "fitresult", "datasets", "plotting", "rigs"}),
-    "firmware": frozenset({"models", "recording", "fitresult", "plotting", "rigs", "estimation"}),
-    "controllers": frozenset({"models", "recording", "fitresult", "plotting", "envs"}),
+    "rigs": DATA | {"models"},  # models: signal names only (see below)
+    "estimation": DATA | {"models"},
+    "identification": DATA | {"models"},
+    "envs": DATA | {"models", "rigs"},
+    "firmware": DATA | {"models", "rigs", "estimation"},
+    "controllers": DATA | {"models", "envs"},
 }
 _BELOW_CLI = frozenset(MAY_IMPORT)
 MAY_IMPORT["studies"] = _BELOW_CLI  # "studies may use everything below the CLI"
