@@ -810,7 +810,6 @@ class Recording:
             )
         sim_model = sim.meta.get("model")
         if model is None and sim_model is not None:
-            # the registry loads every plant model (~0.5 s): only when needed
             from thermogym.models.registry import get_model
 
             try:

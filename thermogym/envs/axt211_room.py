@@ -138,7 +138,6 @@ from thermogym.envs._kernels import (
 from thermogym.envs._plant import ParamsLike, resolve_plant
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
 from thermogym.envs.profiles import synthetic_weather
-from thermogym.envs.weather import weather_table
 from thermogym.errors import ConfigError
 from thermogym.models import _vmath
 from thermogym.models import axt211 as _ax
@@ -905,7 +904,6 @@ class _RoomEngine(Engine):
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
         specimen = None
         if cfg.plant == "rig" and cfg.specimen_seed is not None:
-            # the rigs (~0.4 s) load only for plant='rig'
             from thermogym.rigs.axt211 import specimen_spread
 
             specimen = specimen_spread(np.random.default_rng(cfg.specimen_seed), n=1)[0]
@@ -929,6 +927,8 @@ class _RoomEngine(Engine):
             n_h = math.ceil(self._horizon * T / 3600.0) + 26
             self.tab = np.zeros((B, 2, n_h))
         else:
+            from thermogym.envs.weather import weather_table
+
             self.shared_tab = weather_table(cfg.weather)[None]
             self.tab = self.shared_tab
         sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)

@@ -95,7 +95,6 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from thermogym._checks import positive
 from thermogym.errors import ConfigError, ParameterError, ShapeError, SimulationError
 from thermogym.models.base import Model, Parameter, Signal, ThetaLike
 
@@ -175,7 +174,8 @@ def _wide(v: float) -> tuple[float, float]:
 
 
 def _substeps(dt: float, model_dt: float, what: str) -> int:
-    dt = positive("dt", dt, unit="s", error=ShapeError, text=False)
+    if not (np.isfinite(dt) and dt > 0):
+        raise ShapeError(f"dt is {dt!r}, expected a positive sample period in seconds")
     r = dt / model_dt
     n = round(r)
     if n < 1 or abs(r - n) > 1e-9 * max(r, 1.0):
@@ -477,7 +477,8 @@ def c2d_zoh(
     Ba = np.asarray(B, dtype=float)
     m = Ba.shape[1] if Ba.ndim == 2 else -1
     Ba = _matrix("B", Ba, (n, m), "n_states, n_inputs")
-    dt = positive("dt", dt, unit="s", text=False)
+    if not (np.isfinite(dt) and dt > 0):
+        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
     M = np.zeros((n + m, n + m))
     M[:n, :n] = Aa * dt
     M[:n, n:] = Ba * dt
@@ -526,7 +527,8 @@ def d2c_zoh(
     Ba = np.asarray(B, dtype=float)
     m = Ba.shape[1] if Ba.ndim == 2 else -1
     Ba = _matrix("B", Ba, (n, m), "n_states, n_inputs")
-    dt = positive("dt", dt, unit="s", text=False)
+    if not (np.isfinite(dt) and dt > 0):
+        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
     lam = np.linalg.eigvals(Aa)
     bad = (np.abs(lam.imag) <= 1e-12 * np.maximum(1.0, np.abs(lam))) & (lam.real <= 0)
     if bad.any():
@@ -646,7 +648,8 @@ class StateSpaceModel(Model):
             n_states = np.shape(A)[0] if A is not None and np.ndim(A) == 2 else 1
         if int(n_states) != n_states or n_states < 1:
             raise ConfigError(f"n_states is {n_states!r}; expected a positive integer")
-        positive("dt", dt, unit="s", error=ConfigError, text=False)
+        if not (np.isfinite(dt) and dt > 0):
+            raise ConfigError(f"dt is {dt!r}; expected a positive sample period in seconds")
         if fit_x0 and steady_start:
             raise ConfigError("fit_x0 and steady_start both set; choose one starting state")
         n, m, p = int(n_states), len(ins) + len(dis), len(outs)
@@ -1249,7 +1252,8 @@ def _foptd_arrays(
     K: ArrayLike, T: ArrayLike, tau: ArrayLike, dt: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     Ka, Ta, ta = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (K, T, tau)))
-    dt = positive("dt", dt, unit="s", text=False)
+    if not (np.isfinite(dt) and dt > 0):
+        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
     for name, v in (("K", Ka), ("T", Ta), ("tau", ta)):
         if not np.isfinite(v).all():
             raise ParameterError(f"{name} contains {v[~np.isfinite(v)].flat[0]!r}; expected finite")
@@ -1405,7 +1409,8 @@ def discrete_to_foptd(
     [2.0, 9.4912, 3.0]
     """
     aa, ba, da = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (a, b, d)))
-    dt = positive("dt", dt, unit="s", text=False)
+    if not (np.isfinite(dt) and dt > 0):
+        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
     bad = ~((aa > 0) & (aa < 1))
     if bad.any():
         raise ParameterError(
