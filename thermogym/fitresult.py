@@ -552,7 +552,19 @@ class FitResult:
         # the registry loads every plant model (~0.5 s): only when one is built
         from thermogym.models.registry import get_model
 
-        model = get_model(self.model, **self.model_config)
+        config = dict(self.model_config)
+        op = self.settings.get("operating_point")
+        if (
+            self.model == "ss"
+            and "u_op" not in config
+            and "y_op" not in config
+            and isinstance(op, Mapping)
+        ):
+            # state-space fits made before the model carried its operating point kept it
+            # in the settings only: apply it here, so every simulation path honours it
+            config["u_op"] = dict(op.get("inputs") or {})
+            config["y_op"] = dict(op.get("outputs") or {})
+        model = get_model(self.model, **config)
         self._check_model(model, check_version=check_version, check_name=False)
         return model
 
