@@ -1,6 +1,6 @@
 """Every shipped real data set: thermogym's documented command beside ARX and SIPPY, held out.
 
-For each case of :data:`thermogym.identification.realdata.CASES` (DaISy hair
+For each case of :data:`thermogym.studies.realdata.CASES` (DaISy hair
 dryer, thermic wall, heat exchanger, glass furnace; the DTU building; the two
 TCLab collections: Dowling lab sine/step runs, APMonitor MIMO runs) the
 training data (first half, or the runs named there) are written to CSV and
@@ -57,7 +57,7 @@ from thermogym._fileio import atomic_write_text
 from thermogym.fitresult import FitResult
 from thermogym.identification.linear_fit import operating_point, predict_fit
 from thermogym.identification.metrics import nrmse
-from thermogym.identification.realdata import CASES, case_data
+from thermogym.studies.realdata import CASES, case_data
 from thermogym.models.linear import StateSpaceModel
 from thermogym.recording import Recording, write_recording
 

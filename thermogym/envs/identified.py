@@ -274,8 +274,13 @@ class _IdentifiedEngine(Engine):
                 r = (yo - 1.0, yo + 1.0)
             self.y_lo[j], self.y_hi[j] = r
         exo = ins + dis
-        self.u_op = np.array([float(u_op_map.get(c, 0.0)) for c in exo])
-        self.y_op = np.array([float(y_op_map.get(c, 0.0)) for c in outs])
+        self._op_from_model = hasattr(model, "operating_point")
+        if self._op_from_model:  # ss / foptd carry their operating point themselves
+            u0, y0 = model.operating_point(plant.theta)
+            self.u_op, self.y_op = u0[0].astype(float), y0[0].astype(float)
+        else:  # polynomial and SOPDT fits keep it in the settings
+            self.u_op = np.array([float(u_op_map.get(c, 0.0)) for c in exo])
+            self.y_op = np.array([float(y_op_map.get(c, 0.0)) for c in outs])
         # ---- disturbances (constants or profiles)
         given_d = _names_map(env, "disturbances", cfg.disturbances, dis)
         self.dprof = np.zeros((len(dis), self._horizon + 1))
@@ -347,6 +352,8 @@ class _IdentifiedEngine(Engine):
         self.x = np.zeros((self.B, 0))
         self.u = np.zeros((self.B, len(exo)))
         self.sp = np.zeros((self.B, self.n_seg, len(outs)))
+        self.uop = np.tile(self.u_op, (self.B, 1))
+        self.yop = np.tile(self.y_op, (self.B, 1))
         self._install(range(self.B), self.base_theta)
 
     # ---- set-points
@@ -413,6 +420,9 @@ class _IdentifiedEngine(Engine):
             self.Bm[b, :n] = r.B[0]
             self.C[b, :, :n] = r.C[0]
             self.D[b] = r.D[0]
+            if self._op_from_model:  # an FOPTD's offsets y0 are parameters (randomised too)
+                u0, y0 = self.model.operating_point(th[k : k + 1] if th.shape[0] > 1 else th)
+                self.uop[b], self.yop[b] = u0[0], y0[0]
 
     def randomize(self, method: str | None, **kwargs: Any) -> None:
         super().randomize(method, **kwargs)
@@ -453,7 +463,7 @@ class _IdentifiedEngine(Engine):
         m = len(self.ins)
         u = np.r_[self.u_start, self.dprof[:, 0]]
         self.u[b] = u
-        du = u - self.u_op
+        du = u - self.uop[b]
         n = self.nx
         A, Bm = self.A[b], self.Bm[b]
         try:
@@ -464,9 +474,9 @@ class _IdentifiedEngine(Engine):
         del m
 
     def _measure(self, rows: NDArray[np.int64]) -> NDArray[np.float64]:
-        du = self.u[rows] - self.u_op
+        du = self.u[rows] - self.uop[rows]
         return (
-            self.y_op
+            self.yop[rows]
             + np.einsum("bij,bj->bi", self.C[rows], self.x[rows])
             + np.einsum("bij,bj->bi", self.D[rows], du)
         )
@@ -493,7 +503,7 @@ class _IdentifiedEngine(Engine):
             u_in = self.u_lo + 0.5 * (a + 1.0) * (self.u_hi - self.u_lo)
             d = self.dprof[:, np.minimum(k, self._horizon)].T
             self.u[rows] = np.column_stack([u_in, d])
-            du = self.u[rows] - self.u_op
+            du = self.u[rows] - self.uop[rows]
             # x[k+1] = A x[k] + B (u[k] − u_op)
             self.x[rows] = np.einsum("bij,bj->bi", self.A[rows], self.x[rows]) + np.einsum(
                 "bij,bj->bi", self.Bm[rows], du

@@ -61,7 +61,8 @@ from thermogym.errors import ConfigError, IdentificationError
 from thermogym.fitresult import FitResult
 from thermogym.identification.linear_fit import data_entries, evaluate_fit
 from thermogym.identification.metrics import nrmse
-from thermogym.identification.n4sid import N4SIDProblem, blas_single_thread, prepare_problem
+from thermogym.identification.n4sid import N4SIDProblem, prepare_problem
+from thermogym.models._blas import blas_threads
 from thermogym.models.base import Model
 from thermogym.models.linear import StateSpaceModel, _ss_predict_kernel, _ss_simulate_kernel
 from thermogym.models.polynomial import STRUCTURES, PolynomialModel
@@ -217,7 +218,7 @@ def simulation_fit(
     Returns the mean over experiments and the per-output NRMSE (mean over
     experiments), on deviation data.
     """
-    with blas_single_thread():
+    with blas_threads(1):
         return _simulation_fit(model, theta, us, ys, dt)
 
 
@@ -373,7 +374,7 @@ def _solve(
         return ((R[1:] - R[0]) / step[:, None]).T
 
     try:
-        with blas_single_thread():  # small matrices: extra BLAS threads only spin
+        with blas_threads(1):  # small matrices: extra BLAS threads only spin
             sol = least_squares(
                 fun,
                 x0,
@@ -625,6 +626,14 @@ def _fitresult(
         },
     }
     st.setdefault("x0", "estimate")
+    if isinstance(model, StateSpaceModel):  # the state space carries its operating point
+        model = StateSpaceModel(
+            **{
+                **model.config(),
+                "u_op": [st["operating_point"]["inputs"][c] for c in exo],
+                "y_op": [st["operating_point"]["outputs"][c] for c in prob.outputs],
+            }
+        )
     st["signal_ranges"] = signal_ranges(prob.recordings, exo + prob.outputs)
     kwargs: dict[str, Any] = {}
     if cov is not None:

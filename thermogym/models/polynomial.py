@@ -84,7 +84,6 @@ from thermogym.models.linear import (
     _compact,
     _make_signals,
     _ss_simulate_kernel,
-    _substeps,
     _transposed,
     _wide,
 )
@@ -543,7 +542,7 @@ class PolynomialModel(Model):
             ) from e
 
     def _simulate(self, theta, u, dt, x0, return_states):
-        nsub = _substeps(dt, self.dt, "simulate")
+        nsub = _whole_steps(dt, self.dt, "simulate")
         if nsub != 1:
             raise ShapeError(
                 f"simulate: dt is {dt!r} s but the {self.structure.upper()} model is discrete "
@@ -565,7 +564,7 @@ class PolynomialModel(Model):
         return y, (xs if return_states else None)
 
     def _step(self, x, u, theta, dt):
-        if _substeps(dt, self.dt, "step") != 1:
+        if _whole_steps(dt, self.dt, "step") != 1:
             raise ShapeError(f"step: dt is {dt!r} s; the model steps at dt = {self.dt!r} s")
         r = self.realization(theta)
         x, u, A, Bm = _broadcast_batch(x, u, r.A, r.B)
@@ -575,6 +574,20 @@ class PolynomialModel(Model):
         r = self.realization(theta)
         x, u, C, D = _broadcast_batch(x, u, r.C, r.D)
         return np.einsum("bij,bj->bi", C, x) + np.einsum("bij,bj->bi", D, u)
+
+
+def _whole_steps(dt: float, model_dt: float, what: str) -> int:
+    """``dt / model_dt`` as a whole number of model steps, or :class:`ShapeError`."""
+    if not (np.isfinite(dt) and dt > 0):
+        raise ShapeError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    r = dt / model_dt
+    n = round(r)
+    if n < 1 or abs(r - n) > 1e-9 * max(r, 1.0):
+        raise ShapeError(
+            f"{what}: dt is {dt!r} s but the model is discrete with dt = {model_dt!r} s; "
+            "expected dt equal to the model's or an integer multiple of it"
+        )
+    return int(n)
 
 
 def _at_least_one(a: NDArray[np.float64], shape: tuple[int, int]) -> NDArray[np.float64]:

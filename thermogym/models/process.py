@@ -68,7 +68,6 @@ from thermogym.models.linear import (
     _compact,
     _make_signals,
     _ss_simulate_kernel,
-    _substeps,
     _transposed,
     _wide,
     foptd_zoh,
@@ -423,8 +422,10 @@ def discrete_realization(
     Returns
     -------
     StateSpaceMatrices
-        ``x⁺ = A x + B u``, ``y = C x + D u`` (``K`` zero except for models
-        with a noise model at their own period).
+        ``x⁺ = A x + B u``, ``y = C x + D u`` in deviations from the model's
+        operating point (``u − u_op``, ``y − y_op``; an FOPTD's offsets ``y0``
+        are its ``y_op``); ``K`` zero except for models with a noise model at
+        their own period.
     history : int
         Shift-register length used (0 for models without delay states).
 
@@ -442,7 +443,7 @@ def discrete_realization(
     >>> H, round(float((r.C[0] @ np.linalg.solve(np.eye(4) - r.A[0], r.B[0]))[0, 0]), 9)
     (3, 2.0)
     """
-    from thermogym.models.polynomial import PolynomialModel
+    from thermogym.models.polynomial import PolynomialModel, _whole_steps
 
     th = model.theta(theta)
     if isinstance(model, SOPDTModel):
@@ -453,15 +454,15 @@ def discrete_realization(
         r, H = _pairs_realization(
             a[..., None, None], b1[..., None], b2[..., None], np.ones(1), d, history
         )
-        if model.offsets:
-            raise ConfigError(
-                "an FOPTD model with offsets=True has no linear realisation; "
-                "use its operating point instead"
-            )
         return r, H
-    if isinstance(model, StateSpaceModel | PolynomialModel):
-        nsub = _substeps(dt, model.dt, "discrete_realization")
-        r = model.matrices(th) if isinstance(model, StateSpaceModel) else model.realization(th)
+    if isinstance(model, StateSpaceModel):
+        r = model.matrices(th)
+        same = model.dt is None or abs(dt - model.dt) <= 1e-12 * dt
+        Ar, Br = model.at_period(dt, th)  # exact resampling (held inputs)
+        return StateSpaceMatrices(Ar, Br, r.C, r.D, r.K if same else np.zeros_like(r.K)), 0
+    if isinstance(model, PolynomialModel):
+        nsub = _whole_steps(dt, model.dt, "discrete_realization")
+        r = model.realization(th)
         A, Bm = r.A, r.B
         Ar, Br = A.copy(), Bm.copy()
         for _ in range(nsub - 1):  # inputs held over nsub model steps
