@@ -1081,42 +1081,51 @@ def sopdt(
         T2=T20,
         tau=tau0,
     )
-    P = len(model.param_names)
-    names = model.param_names
-    lo = np.array(
-        [
-            -np.inf if n.startswith("K_") else (0.0 if n.startswith("tau_") else dt / 20)
-            for n in names
-        ]
-    )
-    hi = np.array([max_delay_s if n.startswith("tau_") else np.inf for n in names])
-    data = _Data(list(prob.us), list(prob.ys), dt)
-    best: _Solution | None = None
-    Tsum = T10 + T20
-    for t1, t2, tau in (
-        (T10, T20, tau0),
-        (0.8 * Tsum, 0.2 * Tsum, tau0),
-        (0.5 * Tsum, 0.5 * Tsum, 0.5 * tau0),
-    ):
-        th = model.nominal.copy()
-        th[model._idx["T1"].ravel()] = np.ravel(t1)
-        th[model._idx["T2"].ravel()] = np.ravel(t2)
-        th[model._idx["tau"].ravel()] = np.ravel(np.minimum(tau, max_delay_s))
-        sol = _solve(
-            model, th, np.arange(P), data, "simulation", lower=lo, upper=hi, max_nfev=max_nfev
-        )
-        if best is None or sol.cost < best.cost:
-            best = sol
-    assert best is not None
-    th = best.theta.copy()
+    # one output at a time: the outputs share no parameter (MISO fits, as the polynomials)
+    th = model.nominal.copy()
+    cov = np.zeros((th.size, th.size))
+    nfev, s2s = 0, []
+    m = model.n_inputs
+    for jo, out in enumerate(prob.outputs):
+        sub = SOPDTModel(prob.inputs, [out], disturbances=prob.disturbances,
+                         K=K0[jo : jo + 1], T1=T10[jo : jo + 1], T2=T20[jo : jo + 1],
+                         tau=tau0[jo : jo + 1])  # fmt: skip
+        names = sub.param_names
+        lo = np.array(
+            [-np.inf if n.startswith("K_") else (0.0 if n.startswith("tau_") else dt / 20)
+             for n in names]
+        )  # fmt: skip
+        hi = np.array([max_delay_s if n.startswith("tau_") else np.inf for n in names])
+        data = _Data(list(prob.us), [y[:, jo : jo + 1] for y in prob.ys], dt)
+        best: _Solution | None = None
+        Tsum = T10[jo] + T20[jo]
+        for t1, t2, tau in (
+            (T10[jo], T20[jo], tau0[jo]),
+            (0.8 * Tsum, 0.2 * Tsum, tau0[jo]),
+            (0.5 * Tsum, 0.5 * Tsum, 0.5 * tau0[jo]),
+        ):
+            ths = sub.nominal.copy()
+            ths[sub._idx["T1"].ravel()] = np.ravel(t1)
+            ths[sub._idx["T2"].ravel()] = np.ravel(t2)
+            ths[sub._idx["tau"].ravel()] = np.ravel(np.minimum(tau, max_delay_s))
+            sol = _solve(sub, ths, np.arange(ths.size), data, "simulation", lower=lo, upper=hi,
+                         max_nfev=max_nfev)  # fmt: skip
+            nfev += sol.nfev
+            if best is None or sol.cost < best.cost:
+                best = sol
+        assert best is not None
+        cols = np.arange(jo * 4 * m, (jo + 1) * 4 * m)  # K, T1, T2, tau per input of output jo
+        th[cols] = best.theta
+        cov[np.ix_(cols, cols)] = best.cov
+        s2s.append(best.sigma2)
     # convention T1 >= T2 (the model is symmetric in them)
     for j in range(len(prob.outputs)):
         for i in range(model.n_inputs):
             a, b = model._idx["T1"][j, i], model._idx["T2"][j, i]
             if th[b] > th[a]:
                 th[a], th[b] = th[b], th[a]
-                best.cov[[a, b]] = best.cov[[b, a]]
-                best.cov[:, [a, b]] = best.cov[:, [b, a]]
+                cov[[a, b]] = cov[[b, a]]
+                cov[:, [a, b]] = cov[:, [b, a]]
     final = SOPDTModel(
         prob.inputs,
         prob.outputs,
@@ -1131,14 +1140,14 @@ def sopdt(
         "operating_point_mode": operating_point_mode,
         "focus": "simulation",
         "max_delay_s": max_delay_s,
-        "nfev": best.nfev,
-        "sigma2": best.sigma2,
+        "nfev": nfev,
+        "sigma2": s2s,
         "seconds": time.perf_counter() - t0,
     }
     fit = _fitresult(
         final,
         th[None],
-        best.cov,
+        cov,
         prob,
         vals,
         method="sopdt",
