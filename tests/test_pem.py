@@ -284,3 +284,26 @@ def test_cli_identify_oe_and_bad_values(tmp_path, capsys):
         ]
     )
     assert rc == 2 and "--orders" in capsys.readouterr().err
+
+
+def test_auto_prefers_output_error_for_a_plant_with_white_measurement_noise():
+    from thermogym.identification.ssest import identify_auto
+
+    rng = np.random.default_rng(9)
+    u = _prbs(rng, 1200, 20)
+    clean = lfilter([0, 0.1], [1, -0.9], u)
+    y = clean + 0.3 * np.std(clean) * rng.normal(size=u.size)
+    res = identify_auto(
+        _rec(u[:, None], y),
+        ["u"],
+        ["y"],
+        families=("arx", "oe"),
+        max_order=3,
+        max_delay=3,
+        operating_point_mode="none",
+    )
+    scores = res.fit.settings["auto"]["families"]
+    # least-squares ARX of a low order is biased by output noise; OE is not
+    assert res.fit.settings["auto"]["chosen"] == "oe"
+    assert scores["oe"]["cv_mnrmse"] > scores["arx"]["cv_mnrmse"]
+    assert res.fit.parameters["f1_y"] == pytest.approx(-0.9, abs=0.02)
