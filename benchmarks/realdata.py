@@ -57,9 +57,9 @@ from thermogym._fileio import atomic_write_text
 from thermogym.fitresult import FitResult
 from thermogym.identification.linear_fit import operating_point, predict_fit
 from thermogym.identification.metrics import nrmse
-from thermogym.studies.realdata import CASES, case_data
 from thermogym.models.linear import StateSpaceModel
 from thermogym.recording import Recording, write_recording
+from thermogym.studies.realdata import CASES, case_data
 
 
 # ------------------------------------------------------------------ metric
@@ -81,7 +81,7 @@ def heldout_ss(
         try:
             x0 = m.estimate_x0(du, dy)
             yh = m.simulate(du, dt, None, x0, strict=False).outputs[0]
-        except Exception:  # noqa: BLE001 - an unstable peer model scores -inf
+        except Exception:
             vals.append(-np.inf)
             continue
         f = np.atleast_1d(nrmse(dy.T, yh.T))
@@ -111,7 +111,7 @@ def _arx_fit(us: list, ys: list, n: int, nk: int) -> tuple[np.ndarray, np.ndarra
             T = y.shape[0]
             cols = [-y[L - k : T - k, j] for k in range(1, n + 1)]
             for i in range(m):
-                cols += [u[L - nk - l : T - nk - l, i] for l in range(n)]  # noqa: E741
+                cols += [u[L - nk - l : T - nk - l, i] for l in range(n)]
             rows.append(np.column_stack(cols))
             rhs.append(y[L:, j])
         th = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
@@ -121,7 +121,7 @@ def _arx_fit(us: list, ys: list, n: int, nk: int) -> tuple[np.ndarray, np.ndarra
 
 
 def _arx_sim(a: np.ndarray, b: np.ndarray, nk: int, u: np.ndarray) -> np.ndarray:  # type: ignore[type-arg]
-    p, m, n = b.shape
+    p, m, _n = b.shape
     out = np.zeros((u.shape[0], p))
     for j in range(p):
         den = np.r_[1.0, a[j]]
@@ -134,7 +134,7 @@ def _arx_ss(a: np.ndarray, b: np.ndarray, nk: int) -> tuple[np.ndarray, ...]:  #
     """Block-diagonal observer-form realisation of the ARX (for the common metric)."""
     import scipy.signal
 
-    p, m, n = b.shape
+    p, m, _n = b.shape
     blocks = []
     for j in range(p):
         den = np.r_[1.0, a[j]]
@@ -149,7 +149,7 @@ def _arx_ss(a: np.ndarray, b: np.ndarray, nk: int) -> tuple[np.ndarray, ...]:  #
         blocks.append((Ai, Bi, Ci, Di))
     import scipy.linalg
 
-    As, Bs, Cs, Ds = [], [], [], np.zeros((p, m))
+    As, Ds = [], np.zeros((p, m))
     col = 0
     n_tot = sum(A_.shape[0] for blk in blocks for A_ in blk[0])
     Bm = np.zeros((n_tot, m))
@@ -168,6 +168,7 @@ def _arx_ss(a: np.ndarray, b: np.ndarray, nk: int) -> tuple[np.ndarray, ...]:  #
 
 def arx_baseline(train: list[Recording], ins: list[str], outs: list[str], mode: str) -> dict:  # type: ignore[type-arg]
     """ARX, orders and delay by 2-fold CV of the simulation fit on the training data."""
+
     def dev(rec: Recording) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[type-arg]
         u = np.column_stack([rec[c] for c in ins])
         y = np.column_stack([rec[c] for c in outs])
@@ -231,7 +232,7 @@ def sippy_models(train: list[Recording], ins: list[str], outs: list[str], mode: 
                 s = control.ss(mod.G)
                 ss = (s.A, s.B, s.C, s.D)
             out[meth] = {"ss": ss, "seconds": time.perf_counter() - t}
-        except BaseException as e:  # noqa: BLE001 - SIPPY calls sys.exit on bad input
+        except BaseException as e:
             out[meth] = {"error": repr(e)[:200], "seconds": time.perf_counter() - t}
     return out
 

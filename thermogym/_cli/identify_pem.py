@@ -229,7 +229,6 @@ def main(method: str, argv: list[str]) -> int:
         for name, v in res.fit.parameters.items():
             print(f"  {name:<28} {v:12.5g} ± {res.fit.stderr.get(name, float('nan')):.3g}")
     elif method == "ssest":
-        from thermogym.identification.crossval import split_recording  # noqa: F401
         from thermogym.identification.ssest import ssest
 
         a, _, b = args.orders.partition(":")

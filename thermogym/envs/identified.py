@@ -583,7 +583,7 @@ class IdentifiedPlantEnv(ThermoEnv):
     ...     "operating_point": {"mode": "none", "inputs": {"P": 0.0}, "outputs": {"T": 0.0}}})
     >>> env = gym.make("thermogym/IdentifiedPlant-v0", params=fit, setpoint=15.0)
     >>> obs, info = env.reset(seed=0)
-    >>> for _ in range(100):
+    >>> for _ in range(300):
     ...     obs, r, terminated, truncated, info = env.step(np.ones(1, dtype=np.float32))
     >>> round(env.unwrapped.true_outputs()["T"], 4), env.unwrapped.obs_names
     (20.0, ('T', 'T_set', 'P'))
