@@ -26,9 +26,11 @@ with the same metric:
 
 Metric: NRMSE fit ``1 − ‖y − ŷ‖/‖y − ȳ‖`` per output, mean over outputs
 (MNRMSE, eq 6 of paper 001) and over the held-out recordings; each model is
-simulated on the held-out inputs from the held-out data's operating point
-(that model's mode) with the initial state fitted to the held-out outputs by
-least squares (MATLAB ``compare``). ``worst_margin`` is the smallest
+simulated on the held-out inputs about the held-out data's own operating point
+in that model's mode (its means for ``mean``, as MATLAB's example detrends
+estimation and validation data separately; zero for ``none``; its first
+output sample for ``rest``) with the initial state fitted to the held-out
+outputs by least squares (MATLAB ``compare``). The same for all three. ``worst_margin`` is the smallest
 ``thermogym − max(arx, sippy)`` over the data sets (target >= 0).
 
 Usage::
@@ -93,7 +95,7 @@ def heldout_fit(fit: FitResult, recs: list[Recording], outs: list[str]) -> float
     """MNRMSE of a thermogym FitResult on held-out recordings (the package's predict_fit)."""
     vals = []
     for rec in recs:
-        yh = predict_fit(fit, rec, x0="estimate")
+        yh = predict_fit(fit, rec, x0="estimate", operating="recording")
         vals.append(float(np.mean([nrmse(rec[c], yh[:, j]) for j, c in enumerate(outs)])))
     return float(np.mean(vals))
 
