@@ -41,6 +41,7 @@ __all__ = [
     "PREPARE_HELP",
     "add_data_options",
     "add_prepare_option",
+    "hoist_recordings",
     "load_recordings",
     "parse_prepare",
     "recording_inputs",
@@ -96,6 +97,33 @@ def add_prepare_option(p: argparse.ArgumentParser) -> None:
 
 
 # ------------------------------------------------------------------------------ --prepare
+def hoist_recordings(argv: Sequence[str], option: str = "--prepare") -> list[str]:
+    """``argv`` with recordings written after ``--prepare KEY=VALUE ...`` moved to the front.
+
+    ``--prepare`` takes any number of items, so ``--prepare dt=1 data.csv``
+    would hand the recording to it; items that exist as paths or name a data
+    set (``dataset:NAME``) are recordings and go back among the positionals.
+
+    Examples
+    --------
+    >>> hoist_recordings(["--prepare", "dt=1", "dataset:x", "--out", "f.json"])
+    ['dataset:x', '--prepare', 'dt=1', '--out', 'f.json']
+    """
+    out: list[str] = []
+    moved: list[str] = []
+    inside = False
+    for tok in argv:
+        if tok == option:
+            inside = True
+        elif tok.startswith("-"):
+            inside = False
+        elif inside and "=" not in tok and (tok.startswith("dataset:") or Path(tok).exists()):
+            moved.append(tok)
+            continue
+        out.append(tok)
+    return moved + out
+
+
 def _as_bool(key: str, v: Any) -> bool:
     if isinstance(v, bool):
         return v

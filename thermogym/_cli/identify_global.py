@@ -38,6 +38,7 @@ from thermogym._cli.common import (
 from thermogym._cli.data import (
     add_data_options,
     add_prepare_option,
+    hoist_recordings,
     load_recordings,
     parse_prepare,
 )
@@ -273,7 +274,7 @@ def main(method: str, argv: list[str]) -> int:
     """Run ``thermogym identify METHOD`` with the method's options ``argv``."""
     if method not in _METHODS:
         raise UnknownNameError(f"method {method!r} is not one of {list(_METHODS)}")
-    args = build_parser(method).parse_args(argv)
+    args = build_parser(method).parse_args(hoist_recordings(argv))
     args.command = "identify"
     prep = parse_prepare(args.prepare)
     plan = plan_outputs(

@@ -28,6 +28,7 @@ from thermogym._cli.common import CliParser, number, plan_outputs, seconds, whol
 from thermogym._cli.data import (
     add_data_options,
     add_prepare_option,
+    hoist_recordings,
     load_recordings,
     parse_prepare,
 )
@@ -182,7 +183,7 @@ def main(method: str, argv: list[str]) -> int:
     """Run ``thermogym identify METHOD ARGS``."""
     if method not in METHODS:
         raise ConfigError(f"unknown linear method {method!r}; expected one of {METHODS}")
-    args = build_parser(method).parse_args(argv)
+    args = build_parser(method).parse_args(hoist_recordings(argv))
     args.command = "identify"
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
