@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
 
 from thermogym.cli import main
 from thermogym.models.registry import get_model

@@ -14,7 +14,7 @@ things are accepted everywhere:
   pipeline of :func:`thermogym.identification.prepare.prepare`, its values
   checked before any file is read;
 * timestamp jitter: time steps that vary by up to :data:`JITTER_TOL` around
-  their median are resampled onto the uniform grid of the median step (linear
+  their mean are resampled onto the uniform grid of the mean step (linear
   interpolation) with a note; a recording more irregular than that is left
   as it is for the method to refuse with its own message.
 
@@ -292,24 +292,24 @@ def _files_of(folder: Path, what: str) -> list[Path]:
 def regularise(rec: Any, label: str, say: Callable[[str], None] = print) -> Any:
     """``rec`` itself when uniform; resampled with a note when its steps only jitter.
 
-    Steps within :data:`JITTER_TOL` of their median are timestamp jitter: the
+    Steps within :data:`JITTER_TOL` of the mean step are timestamp jitter: the
     recording is interpolated (linearly, each channel from its own samples)
-    onto the grid of the median step rounded to 3 significant digits,
-    starting at the first sample.
+    onto the grid of the mean step rounded to 3 significant digits, starting
+    at the first sample.
     """
     if rec.n_samples < 3 or rec.is_uniform():
         return rec
     d = np.diff(rec.time)
-    med = float(np.median(d))
-    spread = float(np.max(np.abs(d - med)) / med)
+    mean = float((rec.time[-1] - rec.time[0]) / (rec.n_samples - 1))
+    spread = float(np.max(np.abs(d - mean)) / mean)
     if spread > JITTER_TOL:
         return rec
     from thermogym.identification.prepare import resample
 
-    dt = float(f"{med:.3g}")
+    dt = float(f"{mean:.3g}")
     out, _ = resample(rec, dt, t_start=float(rec.time[0]))
     say(
-        f"note: {label}: time steps vary by up to {100 * spread:.2g} % around {med:.4g} s "
+        f"note: {label}: time steps vary by up to {100 * spread:.2g} % around {mean:.4g} s "
         f"(timestamp jitter); resampled onto a uniform {dt:g} s grid by linear interpolation "
         f"({out.n_samples} samples)"
     )
