@@ -13,6 +13,8 @@ things are accepted everywhere:
 * ``--prepare KEY=VALUE ...`` (where the command offers it): the preparation
   pipeline of :func:`thermogym.identification.prepare.prepare`, its values
   checked before any file is read;
+* values no sensor records are refused: ±inf, a single sample (NaN, an empty
+  field, is a missing sample);
 * timestamp jitter: time steps that vary by up to :data:`JITTER_TOL` around
   their mean are resampled onto the uniform grid of the mean step (linear
   interpolation) with a note; a recording more irregular than that is left
@@ -316,6 +318,24 @@ def regularise(rec: Any, label: str, say: Callable[[str], None] = print) -> Any:
     return out
 
 
+def _check_finite(rec: Any, label: str) -> None:
+    """Refuse what no sensor records: ±inf, and a single sample (NaN is a missing sample)."""
+    if rec.n_samples < 2:
+        raise RecordingError(
+            f"recording {label!r} has a single sample; a recording needs at least 2"
+        )
+    for c in rec.columns:
+        x = rec[c]
+        bad = np.isinf(x)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise RecordingError(
+                f"recording {label!r}: column {c!r} holds {float(x[i])} at row {i} (time "
+                f"{float(rec.time[i]):g} s); expected finite values (an empty field for a "
+                "missing sample)"
+            )
+
+
 def recording_inputs(items: Sequence[str] | None) -> list[str]:
     """The paths among recording items (``dataset:NAME`` left out), for the output guard."""
     return [s for s in (items or []) if not str(s).startswith("dataset:")]
@@ -394,6 +414,7 @@ def load_recordings(
                     rec = rec.replace(experiment_id=f.name.split(".")[0])
                 got.append((rec, str(f)))
         for rec, label in got:
+            _check_finite(rec, label)
             if prepare is not None:
                 from thermogym.identification.prepare import prepare as run_prepare
 

@@ -321,6 +321,8 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
         from thermogym.models.registry import get_model
 
         model = get_model(args.model, **({"effects": list(args.effects)} if args.effects else {}))
+        for rec in [*recs, *(validation or [])]:  # the model's units, before any work
+            rec.validate_for(model, outputs=[n for n in model.output_names if n in rec])
     try:
         problem = Problem(
             model,
