@@ -318,7 +318,7 @@ _STRUCTURED: list[tuple[str, str, list[str], list[str]]] = [
     ("foptd", "--inputs", ["nope", "u,nope", ","], ["nope", "--inputs", ","]),
     ("foptd", "--outputs", ["zz", ","], ["zz", "--outputs", ","]),
     ("foptd", "--model", ["nope"], ["nope"]),
-    ("rls", "--delays", ["a", "-1", "1,x"], ["--delays"]),
+    ("rls", "--delays", ["a", "-1", "1,x", "100000"], ["--delays"]),
     ("montecarlo", "--free", ["nope", "r_motor=3:1", "r_motor=a:b", "r_nut=1:2:9", "r_nut=1"],
      ["nope", "r_motor", "r_nut"]),
     ("montecarlo", "--fix", ["r_nut=abc", "nope=1", "r_nut"], ["r_nut", "nope"]),
@@ -344,7 +344,7 @@ _STRUCTURED: list[tuple[str, str, list[str], list[str]]] = [
     ("virtual-sensor", "--method", ["ukf"], ["--method"]),
     ("virtual-sensor", "--measured", ["nope"], ["nope"]),
     ("virtual-sensor", "--hidden", ["nope"], ["nope"]),
-    ("virtual-sensor", "--rest", ["u", "u=", "=1"], ["u", "=1"]),
+    ("virtual-sensor", "--rest", ["u", "u=", "=1", "u=nan", "u=inf"], ["u", "=1"]),
     ("virtual-sensor", "--reference", ["nope"], ["nope"]),
     ("budget", "--range", ["u=5:1", "u=a:b", "u", "u=1"], ["u="]),
     ("budget", "--target", ["z80"], ["z80"]),
@@ -871,6 +871,12 @@ _MISMATCH: list[tuple[list[str], list[str], dict[str, str]]] = [
       "voltages=[24]", "--option", "ambients=[25]"], ["samples", "dt"], {}),
     (["virtual-sensor", "hd.csv", "--fit", "fit_ss.json", "--out", "vs.csv", "--measured",
       "y", "--hidden", "y"], ["'y'"], {}),
+    (["identify", "foptd", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-delay-s", "1e9",
+      "--out", "f.json"], ["--max-delay-s"], {}),
+    (["identify", "rls", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-delay-s", "1e6",
+      "--out", "f.json"], ["--max-delay-s"], {}),
+    (["diagnose", "--model", "strut", "--train", "strut.csv", "--validate", "strut.csv",
+      "--out", "r.json", "--dt", "1e9"], ["1000000000", "period", "short"], {}),
 ]  # fmt: skip
 
 

@@ -520,3 +520,22 @@ def test_demo_reuses_real_rig_recordings(tmp_path):
     # another seed: the earlier recordings are not this run's, so they are not reused
     res = run_demo(tmp_path, quick=True, seed=1, only=["use"], stages=stages, progress=False)
     assert res[0].status == "skipped" and "from seed 0" in res[0].error
+
+
+def test_spreadsheet_exports_read_or_named(tmp_path):
+    from thermogym.errors import RecordingError
+    from thermogym.recording import read_recording
+
+    rows = "0,1,2\n1,1,3\n2,0,2\n"
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbftime,u,y\n" + rows.encode())
+    assert read_recording(tmp_path / "bom.csv").columns == ("u", "y")
+    (tmp_path / "c.csv").write_text("# logged 2024\n# by hand\ntime,u,y\n" + rows)
+    notes: list[str] = []
+    assert read_recording(tmp_path / "c.csv", notes=notes).n_samples == 3
+    assert notes == ["skipped 2 comment line(s) (# ...) before the header"]
+    (tmp_path / "u.csv").write_text("time,u,y\ns,V,V\n" + rows)
+    with pytest.raises(RecordingError, match="units row"):
+        read_recording(tmp_path / "u.csv")
+    (tmp_path / "t.csv").write_text("time,u,y,\n0,1,2,\n1,1,3,\n")
+    with pytest.raises(RecordingError, match="empty name"):
+        read_recording(tmp_path / "t.csv")

@@ -112,6 +112,12 @@ def _fmt_names(names: Iterable[str]) -> str:
 
 
 def _check_name(name: Any) -> str:
+    if name == "":
+        raise RecordingError(
+            "column name '' is not an identifier: a column has an empty name (a delimiter at "
+            "the end of the header line?); expected letters, digits and _ (the model signal "
+            "names)"
+        )
     if not isinstance(name, str) or not _NAME_RE.match(name):
         raise RecordingError(
             f"column name {name!r} is not an identifier; expected letters, digits and _ "
@@ -1222,9 +1228,14 @@ def _arrow_column(name: str, col: pa.ChunkedArray, where: str, line0: int | None
         notnull = np.asarray(pd.notna(values))
         i = _first_true(notnull) if notnull.any() else 0
     line = f" (line {i + line0})" if line0 is not None else ""
+    hint = (
+        "; a units row under the header? remove it (units go into the .meta.json sidecar)"
+        if i == 0 and line0 is not None
+        else ""
+    )
     raise RecordingError(
         f"{where}: column {name!r} holds a non-numeric value {_show(values[i])} at row {i}{line} "
-        f"(read as {t}); expected real numbers, an empty field for a missing sample"
+        f"(read as {t}); expected real numbers, an empty field for a missing sample{hint}"
     )
 
 
@@ -1355,6 +1366,7 @@ def sniff_csv(
         raise RecordingError(f"decimal mark {decimal!r}; expected '.' or ','")
     notes: list[str] = []
     lines = _head_lines(path) if (delimiter is None or decimal is None) else []
+    lines = lines[_leading_comments(lines) :]
     if delimiter is None:
         found = []
         for d in CSV_DELIMITERS:
@@ -1389,6 +1401,14 @@ def sniff_csv(
             "file needs another delimiter, e.g. ';'"
         )
     return delimiter, decimal, notes
+
+
+def _leading_comments(lines: Sequence[str]) -> int:
+    """How many of the first lines are comments (``# ...``) before the header."""
+    n = 0
+    while n < len(lines) and lines[n].lstrip().startswith("#"):
+        n += 1
+    return n
 
 
 def _csv_parse_hint(path: Path, delimiter: str, decimal: str) -> str:
@@ -1513,11 +1533,17 @@ def read_recording(
     found: list[str] = []
     if fmt == "csv":
         delimiter, decimal, found = sniff_csv(path, delimiter=delimiter, decimal=decimal)
+    skip = 0
+    if fmt == "csv":
+        skip = _leading_comments(_head_lines(path, 200))
+        if skip:
+            found.append(f"skipped {skip} comment line(s) (# ...) before the header")
     try:
         if fmt == "csv":
             try:
                 table = pa_csv.read_csv(
                     str(path),
+                    read_options=pa_csv.ReadOptions(skip_rows=skip),
                     parse_options=pa_csv.ParseOptions(delimiter=delimiter),
                     convert_options=pa_csv.ConvertOptions(
                         strings_can_be_null=True, decimal_point=decimal or "."
@@ -1529,7 +1555,7 @@ def read_recording(
                     + _csv_parse_hint(path, delimiter or ",", decimal or ".")
                 ) from e
             stored = _read_sidecar(path)
-            line0: int | None = 2
+            line0: int | None = 2 + skip
         else:
             table = pq.read_table(str(path))
             raw = (table.schema.metadata or {}).get(_META_KEY.encode())

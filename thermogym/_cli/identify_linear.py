@@ -216,6 +216,14 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     vals = load_recordings(args.validate, "validation", args, prepare=prep)
     inputs, outputs = _signals(args, train[0])
     dist = _cols(args.disturbances)
+    max_delay = getattr(args, "max_delay_s", None)
+    if max_delay is not None:
+        span = min(r.duration for r in train)
+        if max_delay > span:
+            raise ConfigError(
+                f"--max-delay-s {max_delay:g} s is longer than the recording ({span:g} s); "
+                "expected a delay within it"
+            )
     plots = plan.get("--plots")
     figures: list[Path] = []
     if method == "foptd":
@@ -279,6 +287,12 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
                 ) from None
             if any(v < 0 for v in delays):
                 raise ConfigError(f"--delays {args.delays!r}: expected delays >= 0 samples")
+            n = min(r.n_samples for r in train)
+            if max(delays) >= n // 2:
+                raise ConfigError(
+                    f"--delays {args.delays!r}: a delay of {max(delays)} samples leaves too little "
+                    f"of a {n}-sample recording to fit; expected delays < {n // 2} samples"
+                )
             d = np.array(delays)[:, None] if len(delays) > 1 else delays[0]
         else:
             d = np.round(

@@ -108,6 +108,9 @@ def _pairs(items: list[str]) -> dict[str, float | str]:
             if not v.isidentifier():
                 raise ConfigError(f"{item!r}: {v!r} is neither a number nor a channel") from None
             out[k] = v
+            continue
+        if not np.isfinite(out[k]):
+            raise ConfigError(f"{item!r}: {v!r} is not a finite number")
     return out
 
 
