@@ -51,11 +51,7 @@ def _mean(d: Any, key: str = "mnrmse") -> float:
 def _prepare_spindle(ctx: DemoContext, recs: dict[str, list[Any]]) -> tuple[Any, list[Any]]:
     """The raw spindle days prepared (paper 001 section 2.3.1), and a table row per day."""
     from thermogym.identification.prepare import prepare
-
-    try:
-        from thermogym.studies.spindle import PREPARE, SpindleData
-    except ImportError:  # before the paper studies moved to thermogym.studies
-        from thermogym.identification.spindle_study import PREPARE, SpindleData
+    from thermogym.studies.spindle import PREPARE, SpindleData
 
     t0 = time.perf_counter()
     runs: dict[tuple[int, int], Any] = {}
@@ -87,7 +83,7 @@ def _prepare_spindle(ctx: DemoContext, recs: dict[str, list[Any]]) -> tuple[Any,
 def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> None:
     from thermogym.identification.linear_plots import plot_order_cv
     from thermogym.identification.n4sid import n4sid
-    from thermogym.identification.spindle_study import OUTPUTS, table5
+    from thermogym.studies.spindle import OUTPUTS, table5
 
     data, prep_rows = _prepare_spindle(ctx, recs)
     ctx.products["spindle_data"] = data
@@ -157,7 +153,7 @@ def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> 
 def _strut(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> None:
     from thermogym.identification.coordinator import run_identification
     from thermogym.identification.foptd import fit_foptd
-    from thermogym.identification.strut_study import (
+    from thermogym.studies.strut import (
         OUTPUTS,
         StrutStudyConfig,
         run_strut_study,
