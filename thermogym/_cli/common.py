@@ -350,8 +350,8 @@ def _interrupts_held() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGINT, old)
-        if got:
-            raise KeyboardInterrupt
+    if got:  # the files are in place: say so rather than "nothing was written"
+        raise Interrupted("Ctrl-C came while the outputs were moved into place; they were")
 
 
 class OutputPlan:
@@ -556,8 +556,7 @@ class OutputPlan:
                         )
                     os.replace(src, dst)
                     moved.append(dst)
-                for anchor_dir in {root}:
-                    shutil.rmtree(anchor_dir, ignore_errors=True)
+                shutil.rmtree(root, ignore_errors=True)
             for p, kind, _ in self._targets.values():
                 if kind == "folder":
                     p.mkdir(parents=True, exist_ok=True)
