@@ -20,9 +20,10 @@ work folder of valid files with exactly one thing wrong, and counts:
 ``silent_wrong``
     a known-bad input that exits 0.
 ``file_damage``
-    a case after which a file of the work folder changed, vanished or a new
-    one was left (a best-so-far ``*.interrupted*`` file named by the message
-    is allowed).
+    a case after which a file of the work folder changed or vanished, or a
+    failed run left a new file (a best-so-far ``*.interrupted*`` file named by
+    the message is allowed; the outputs of a run wrongly exiting 0 count under
+    ``silent_wrong``).
 
 Peer: the hand survey of issue 17 before this work (153 bad inputs, 116 with a
 clear error, 76 %); it is not re-measured here, the old CLI being gone.

@@ -23,8 +23,10 @@ Every case is known to be wrong, so its run is judged as:
 ``silent_wrong``
     exit status 0: a known-bad input accepted.
 ``file_damage`` (counted besides the above)
-    any file of the work folder changed or removed, or a new file left behind
-    (except a best-so-far ``*.interrupted*`` file that the message names).
+    any file of the work folder changed or removed, or, after a run that did
+    not succeed, a new file left behind (except a best-so-far
+    ``*.interrupted*`` file that the message names). The outputs of a run that
+    wrongly exits 0 are counted under ``silent_wrong`` only.
 
 A *picker* draws the case's choices: :class:`RandomPicker` (seeded) or the
 test's hypothesis picker; both provide ``choice``, ``integer``, ``number`` and
@@ -1014,7 +1016,7 @@ def run_case(case: Case, *, timeout: float = 120.0, keep: Path | None = None) ->
         damage = [k for k in before if after.get(k) != before[k]]
         new = [k for k in after if k not in before]
         allowed = [k for k in new if ".interrupted" in k and k in stderr]
-        if not (code == 0 and case.expect == "ok"):
+        if code != 0:  # a run that exits 0 wrote its outputs (a silent accept, counted so)
             damage += [f"+{k}" for k in new if k not in allowed]
         verdict = _judge(case, code, stderr, escaped)
         if escaped:
