@@ -178,7 +178,7 @@ def _options(rig_name: str, protocol: str, items: list[str]) -> dict[str, Any]:
 def _check_size(rig: str, protocol: str, opts: dict[str, Any], given: dict[str, Any]) -> None:
     """Refuse options that would ask for more samples than memory holds."""
     dt = opts.get("dt")
-    if not _is_number(dt) or not given:
+    if not isinstance(dt, int | float) or isinstance(dt, bool) or dt <= 0 or not given:
         return
     span = sum(
         float(opts[k]) * (3600.0 if k.endswith("_h") else 1.0)

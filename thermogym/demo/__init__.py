@@ -198,7 +198,7 @@ def run_demo(
     results = run_stages(ctx, todo, progress=progress, all_stages=every)
     total = time.perf_counter() - t0
     load = os.getloadavg() if hasattr(os, "getloadavg") else None
-    kw = {"seed": seed, "quick": quick, "total": total, "load": load}
+    kw: dict[str, Any] = {"seed": seed, "quick": quick, "total": total, "load": load}
     try:
         manifest = json.loads((ctx.out / MANIFEST).read_text())["stages"]
     except (OSError, ValueError, KeyError):
@@ -237,4 +237,8 @@ def run_demo(
 
 def _writer(text: str) -> Callable[[Path], None]:
     data = text.encode("utf-8")
-    return lambda tmp: tmp.write_bytes(data) and None
+
+    def write(tmp: Path) -> None:
+        tmp.write_bytes(data)
+
+    return write
