@@ -22,9 +22,16 @@ N4SID refined by PEM, order / feedthrough / input delay by cross-validation
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
 
+from thermogym._cli.common import CliParser, plan_outputs, seconds, whole
+from thermogym._cli.data import (
+    add_data_options,
+    add_prepare_option,
+    hoist_recordings,
+    load_recordings,
+    parse_prepare,
+)
 from thermogym.errors import ConfigError
 
 METHODS = ("arx", "armax", "oe", "bj", "sopdt", "ssest", "auto")
@@ -63,14 +70,17 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         "cross-validation (MATLAB ssest)",
         "auto": "the family (ARX, OE, SOPDT, ssest) with the best cross-validated fit",
     }[method]
-    p = argparse.ArgumentParser(prog=f"thermogym identify {method}", description=desc)
-    p.add_argument("data", nargs="+", help="training recordings (CSV/Parquet or dataset:NAME)")
+    p = CliParser(prog=f"thermogym identify {method}", description=desc)
+    p.add_argument(
+        "data", nargs="+", help="training recordings: CSV/Parquet files, folders, dataset:NAME"
+    )
     p.add_argument("--validate", nargs="+", default=[], metavar="DATA", help="validation data")
     p.add_argument("--model", help="thermogym plant whose signal names to use")
     p.add_argument("--inputs", help="exogenous columns, comma separated")
     p.add_argument("--outputs", help="output columns, comma separated")
     p.add_argument("--disturbances", help="which inputs are disturbances (default: roles)")
-    p.add_argument("--prepare", nargs="*", metavar="KEY=VALUE", help="prepare raw data first")
+    add_prepare_option(p)
+    add_data_options(p)
     p.add_argument(
         "--operating-point",
         choices=_OP_MODES,
@@ -78,7 +88,12 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         help="subtracted from each experiment; auto (default): 'mean' or 'none', whichever "
         "cross-validates better with an ARX model",
     )
-    p.add_argument("--folds", type=int, default=2, help="cross-validation folds (default 2)")
+    p.add_argument(
+        "--folds",
+        type=whole(2, 100, what="a number of folds"),
+        default=2,
+        help="cross-validation folds (default 2)",
+    )
     p.add_argument("--out", required=True, help="FitResult JSON to write")
     p.add_argument("--plots", help="folder for figures")
     if method in ("arx", "armax", "oe", "bj"):
@@ -100,20 +115,36 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         default = 10 if method in ("arx", "auto") else 6
         p.add_argument(
             "--max-order",
-            type=int,
+            type=whole(1, 50, what="a model order"),
             default=default,
             help=f"largest order tried (default {default}; auto: ARX, the others up to 4)",
         )
-        p.add_argument("--max-delay", type=int, default=10, help="largest delay tried [samples]")
+        p.add_argument(
+            "--max-delay",
+            type=whole(0, 10_000, what="a delay in samples"),
+            default=10,
+            help="largest delay tried [samples] (default 10)",
+        )
     if method == "sopdt":
-        p.add_argument("--max-delay-s", type=float, help="largest delay [s]")
+        p.add_argument(
+            "--max-delay-s", type=seconds(what="a largest delay"), help="largest delay [s]"
+        )
     if method == "ssest":
         g = p.add_mutually_exclusive_group()
-        g.add_argument("--order", type=int, help="model order (default: cross-validation)")
+        g.add_argument(
+            "--order",
+            type=whole(1, 500, what="a model order"),
+            help="model order (default: cross-validation)",
+        )
         g.add_argument("--orders", default="1:8", help="candidate orders A:B (default 1:8)")
         p.add_argument("--feedthrough", choices=("auto", "yes", "no"), default="auto")
         p.add_argument("--input-delay", help="input delay [samples] or auto (default)")
-        p.add_argument("--max-delay", type=int, default=5, help="largest delay tried [samples]")
+        p.add_argument(
+            "--max-delay",
+            type=whole(0, 10_000, what="a delay in samples"),
+            default=5,
+            help="largest input delay tried [samples] (default 5)",
+        )
         p.add_argument("--no-refine", action="store_true", help="N4SID only, no PEM refinement")
         p.add_argument("--focus", choices=("prediction", "simulation"), default="simulation")
     if method == "auto":
@@ -151,41 +182,29 @@ def choose_operating_point(
     return best, scores
 
 
-def _load_items(items: list[str], prep: Any, load: Any) -> list[Any]:
-    """Recordings from files and ``dataset:NAME`` items (shipped data sets)."""
-    from thermogym.identification.prepare import prepare
-
-    out = []
-    for item in items:
-        if item.startswith("dataset:"):
-            from thermogym.datasets import load as load_dataset
-
-            rec = load_dataset(item.split(":", 1)[1])
-            if prep is not None:
-                rec = prepare(rec, **prep)
-            elif not rec.is_uniform():
-                raise ConfigError(
-                    f"{item} has irregular time stamps; resample it with --prepare dt=PERIOD"
-                )
-            out.append(rec)
-        else:
-            out += load([item], prep)
-    return out
-
-
 def main(method: str, argv: list[str]) -> int:
     """Run ``thermogym identify METHOD ARGS``."""
-    from thermogym._cli.identify_linear import _cols, _load, _plot_fits, _prepare_options, _report
-    from thermogym._cli.identify_linear import _signals as signals
+    from thermogym._cli.identify_linear import _cols
 
     if method not in METHODS:
         raise ConfigError(f"unknown PEM method {method!r}; expected one of {METHODS}")
-    args = build_parser(method).parse_args(argv)
-    if args.folds < 2:
-        raise ConfigError(f"--folds {args.folds}: expected a whole number >= 2")
-    prep = _prepare_options(args.prepare)
-    train = _load_items(args.data, prep, _load)
-    vals = _load_items(args.validate, prep, _load)
+    args = build_parser(method).parse_args(hoist_recordings(argv))
+    args.command = "identify"
+    prep = parse_prepare(args.prepare)
+    _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
+    plan = plan_outputs(
+        args, files={"out": "json"}, folders=("plots",), inputs=("data", "validate")
+    )
+    with plan:
+        return _identify(method, args, prep, plan)
+
+
+def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> int:
+    from thermogym._cli.identify_linear import _cols, _plot_fits, _report
+    from thermogym._cli.identify_linear import _signals as signals
+
+    train = load_recordings(args.data, "training", args, prepare=prep)
+    vals = load_recordings(args.validate, "validation", args, prepare=prep)
     inputs, outputs = signals(args, train[0])
     dist = _cols(args.disturbances)
     op = args.operating_point
@@ -291,14 +310,12 @@ def main(method: str, argv: list[str]) -> int:
     if op != args.operating_point:
         fit.settings["operating_point_choice"] = {"mode": op, "rule": "ARX cross-validation"}
     _report(fit)
-    fit.save(args.out)
-    if args.plots:
-        plots = Path(args.plots)
-        plots.mkdir(parents=True, exist_ok=True)
-        figures = _plot_fits(fit, train, plots, "train") + _plot_fits(
-            fit, vals, plots, "validation"
-        )
+    fit.save(plan.path("--out"))
+    plots = plan.get("--plots")
+    if plots:
+        figures = _plot_fits(fit, train, plots, "train")
+        figures += _plot_fits(fit, vals, plots, "validation")
         for f in figures:
-            print(f"  figure: {f}")
+            print(f"  figure: {plan.final(f)}")
     print(f"wrote {args.out}")
     return 0
