@@ -11,7 +11,8 @@ with the same metric:
   the command line in this process:
   ``thermogym identify auto TRAIN.csv --inputs ... --outputs ... --out FIT.json``
   (family, orders, delays, structure and operating point chosen by 2-fold
-  cross-validation on the training data alone).
+  cross-validation on the training data alone), with ``--operating-point rest``
+  for the TCLab runs, which start at rest (:func:`command_for`).
 * **arx** — the baseline of issue 16: ARX by least squares, per output a
   multi-input ARX with ``na = nb = n`` (1..10) and one delay ``nk`` (0..10)
   for all inputs, chosen by 2-fold cross-validation of the simulation fit on
@@ -30,8 +31,9 @@ simulated on the held-out inputs about the held-out data's own operating point
 in that model's mode (its means for ``mean``, as MATLAB's example detrends
 estimation and validation data separately; zero for ``none``; its first
 output sample for ``rest``) with the initial state fitted to the held-out
-outputs by least squares (MATLAB ``compare``). The same for all three. ``worst_margin`` is the smallest
-``thermogym − max(arx, sippy)`` over the data sets (target >= 0).
+outputs by least squares (MATLAB ``compare``). The same for all three.
+``worst_margin`` is the smallest ``thermogym − max(arx, sippy)`` over the data
+sets (target >= 0).
 
 Usage::
 
@@ -241,11 +243,22 @@ def sippy_models(train: list[Recording], ins: list[str], outs: list[str], mode: 
 
 # ------------------------------------------------------------------- main
 def command_for(case: Any, train_csv: str, out: str) -> list[str]:
-    """The README's one-line command for a case (as argv)."""
-    return [
+    """The README's one-line command for a case (as argv).
+
+    The default options, plus ``--operating-point rest`` where the data set's
+    description says every run starts at rest with the inputs at zero (the
+    TCLab runs: board at ambient, heaters off at ``t = 0``; the ``rest`` mode of
+    :data:`thermogym.studies.realdata.CASES`, which the baselines get too).
+    Cross-validation cannot judge that mode on one cut run: only the first
+    part starts at rest.
+    """
+    argv = [
         "identify", "auto", train_csv, "--inputs", ",".join(case.inputs),
         "--outputs", ",".join(case.outputs), "--out", out,
     ]  # fmt: skip
+    if case.operating_point == "rest":
+        argv += ["--operating-point", "rest"]
+    return argv
 
 
 def main() -> None:
@@ -274,7 +287,7 @@ def main() -> None:
         fit_path.parent.mkdir(parents=True, exist_ok=True)
         t = time.perf_counter()
         argv = command_for(case, csvs[0], str(fit_path))
-        argv[2:3] = csvs
+        argv[2:3] = csvs  # every training run (TCLab: one; the halves: one)
         buf = io.StringIO()
         with contextlib.redirect_stdout(buf):
             rc = cli(argv)

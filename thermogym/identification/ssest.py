@@ -460,7 +460,7 @@ def _sopdt_fold(prob: Any, mode: str) -> Any:
             names,
             prob.outputs,
             disturbances=prob.disturbances,
-            operating_point_mode="none" if mode != "rest" else "rest",
+            operating_point_mode="none",  # fold data are deviations already
         )
         return r.model, r.theta
 
