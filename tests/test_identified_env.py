@@ -144,3 +144,22 @@ def test_a_fit_without_recorded_ranges_asks_for_input_range():
     env.reset(seed=0)
     env.step(np.ones(1, dtype=np.float32))
     assert env.unwrapped.true_outputs()["u"] == 4.0
+
+
+def test_a_batch_mixing_whole_and_fractional_delays_is_realised():
+    from thermogym.models.process import discrete_realization
+
+    m = SOPDTModel(["u"], ["y"], K=1.0, T1=20.0, T2=5.0, tau=3.0)
+    th = m.theta({"tau_y": [3.0, 2.5]})  # the larger delay has no fractional share
+    r, H = discrete_realization(m, th, 1.0)
+    assert H == 3
+    u = np.ones((60, 1))
+    for b, tau in enumerate((3.0, 2.5)):
+        one = SOPDTModel(["u"], ["y"], K=1.0, T1=20.0, T2=5.0, tau=tau)
+        y = one.simulate(u, 1.0).outputs[0, :, 0]
+        x = np.zeros(r.A.shape[1])
+        ys = []
+        for k in range(60):
+            ys.append(float((r.C[b] @ x)[0]))
+            x = r.A[b] @ x + r.B[b] @ u[k]
+        np.testing.assert_allclose(ys, y, atol=1e-12)

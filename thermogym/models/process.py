@@ -199,7 +199,8 @@ def _pairs_realization(
                 if np.any(now):
                     Bm[b_idx[now], sl, i] += G[now]
                 for b in np.flatnonzero(~now):
-                    A[b, sl, reg(i, int(lag[b]))] += G[b]
+                    if G[b].any():  # (a whole-sample delay has no older share)
+                        A[b, sl, reg(i, int(lag[b]))] += G[b]
     return StateSpaceMatrices(A, Bm, C, D, np.zeros((Bt, n, p))), H
 
 
