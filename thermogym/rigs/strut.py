@@ -83,19 +83,20 @@ Concealed effects (``effect_defaults``; written in this module, never
 borrowed from the model's augmentations or the diagnosis; nothing in the
 recordings or their metadata names them):
 
-* ``input_dependent_heat_transfer`` — the strut is carried through the air as
-  in a hexapod: the platform moves at the feed rate (``speed_ratio`` = 1), the
-  motor end hardly moves, so the cross-flow speed grows along the strut from 0
-  at the motor to ``v`` at the front of the push tube; Churchill-Bernstein
-  cross-flow convection (Incropera eq 7.54), mixed with the other convection.
+* ``input_dependent_heat_transfer`` — a self-ventilated drive motor (IC 411):
+  its shaft fan blows along the housing at 3 m/s at 1000 rpm (``air_speed``,
+  ``at_rpm``; ∝ motor speed, belt 1:1), laminar flat-plate convection over
+  the 0.3 m housing (Incropera eq 7.30) mixed with free convection: the drive
+  and flange exchange 1.9× more heat with the air at 20 m/min, 2.1× at 30.
 * ``input_nonlinearity`` — viscous (speed-dependent) friction of the bearing
   pair and the nut by Palmgren, ``M_0 = 10⁻⁷ f_0 (ν n)^(2/3) d_m³``
   (grease base oil 100 mm²/s; bearings f_0 = 2 each, d_m 55 mm; nut f_0 = 4,
   d_m 40 mm): 21 W at 1000 rpm, growing as n^(5/3) (``f0_scale`` = 1).
 * ``nonlinear_heat_transfer`` — free convection and radiation evaluated at the
   actual temperatures instead of the 10 K linearisation.
-* ``time_varying_parameter`` — the nut's grease is pushed out of the raceway:
-  its friction grows with travel, 4 % per km (``per_km``).
+* ``time_varying_parameter`` — the grease of the nut and of the bearing pair is
+  pushed out of the raceways: their friction grows with travel, 4 % per km
+  (``per_km``).
 * ``transport_delay`` — the feed-rate log runs 10 min behind the temperature
   logger (``delay`` = 600 s).
 * ``unmeasured_disturbance`` — a 1.5 K, 2 h air-conditioning cycle around the
@@ -140,7 +141,6 @@ from thermogym._jitcache import cache_depends_on
 from thermogym.errors import ConfigError, ShapeError, UnknownNameError
 from thermogym.rigs import _convection
 from thermogym.rigs._convection import (
-    h_cross_flow,
     h_free_cylinder,
     h_mixed,
     h_moving_surface,
@@ -235,6 +235,7 @@ _T_REF = 20.0  # °C: reference temperature of the strut length (ISO 1)
 _TC_TAU = 30.0  # s: thermocouple in a blind hole with paste
 _N_REF = 1000.0  # rpm: reference speed of the viscous friction
 _V_REF = 20.0  # m/min
+_L_MOTOR = 0.3  # m, motor housing length along the fan's air stream
 
 # lumped nodes
 _LUMPED = (
@@ -329,10 +330,10 @@ class _Arrays:
     hnat: NDArray[np.float64]  # (nn,) linearised free convection
     hrad: NDArray[np.float64]  # (nn,) linearised radiation
     ftype: NDArray[np.int64]  # (nn,) 0 none, 1 rotating screw, 2 push tube
-    xf: NDArray[np.float64]  # (nn,) cross-flow speed share along the strut
+    xf: NDArray[np.float64]  # (nn,) fan air speed per motor rpm [m/s per rpm]
     qlin: NDArray[np.float64]  # (B, nn) W per m/min
     qcu: NDArray[np.float64]
-    qnut: NDArray[np.float64]
+    qwear: NDArray[np.float64]
     qvisc: NDArray[np.float64]  # (B, nn) W at the reference speed
     tca: NDArray[np.int64]
     tcb: NDArray[np.int64]
@@ -435,7 +436,6 @@ class StrutPlant:
         ts_e = np.linspace(0.0, _L_TUBE, Nt + 1)
         dxs, dxt = _L_SCREW / Ns, _L_TUBE / Nt
         xs_c = 0.5 * (xs_e[:-1] + xs_e[1:])
-        ts_c = 0.5 * (ts_e[:-1] + ts_e[1:])
         a_screw = math.pi / 4 * _D_SCREW**2
         a_tube = math.pi / 4 * (_D_TUBE**2 - _D_TUBE_IN**2)
         # capacities
@@ -512,17 +512,11 @@ class StrutPlant:
         if ph["forced_convection"]:
             ftype[S0:T0] = 1
             ftype[T0:] = 2
-        # cross flow along the strut (concealed input-dependent heat transfer): speed share
-        # from 0 at the motor end to 1 at the front of the push tube
-        xc = cc.get("input_dependent_heat_transfer")
-        if xc is not None:
-            total = _L_SCREW + _L_TUBE
-            mean_rear = 0.5 * (_STROKE[0] + _STROKE[1]) + _TUBE_REAR_OFFSET
-            xf[S0:T0] = xs_c / total
-            xf[T0:] = np.clip((mean_rear + ts_c) / total, 0.0, 1.0)
-            for k, x in (("nut", 0.75), ("carriage", 0.7), ("bushing", _BUSHING_X)):
-                xf[_IX[k]] = x / total
-            xf *= float(xc.get("speed_ratio", 1.0))
+        # the drive motor's shaft fan (concealed input-dependent heat transfer)
+        fan = cc.get("input_dependent_heat_transfer")
+        if fan is not None:
+            per_rpm = float(fan.get("air_speed", 3.0)) / float(fan.get("at_rpm", 1000.0))
+            xf[_IX["drive"]] = xf[_IX["motor_flange"]] = per_rpm
         hnat = np.array([h_free_cylinder(_DT_DESIGN, d) for d in D])
         hrad = np.array([h_radiation(25.0 + _DT_DESIGN / 2, 25.0 - _DT_DESIGN / 2, e) for e in eps])
         # heat sources
@@ -530,7 +524,7 @@ class StrutPlant:
         w_rpm = 2 * math.pi / 60.0 / _LEAD  # rad/s per m/min
         qlin = np.zeros((B, nn))
         qcu = np.zeros((B, nn))
-        qnut = np.zeros((B, nn))
+        qwear = np.zeros((B, nn))
         qvisc = np.zeros((B, nn))
         lm, lb, ln = sp["loss_motor"], sp["loss_bearing"], sp["loss_nut"]
         cu_node = _IX["winding"] if ph["winding_node"] else _IX["drive"]
@@ -538,12 +532,12 @@ class StrutPlant:
         qlin[:, _IX["drive"]] += _Q_IRON / _V_REF * lm
         qlin[:, _IX["pulley_motor"]] += 0.5 * _Q_BELT / _V_REF
         qlin[:, _IX["pulley_spindle"]] += 0.5 * _Q_BELT / _V_REF
-        kb = _M_BEARING * w_rpm * lb
-        qlin[:, _IX["bearing"]] += (1 - part) * kb
-        qlin[:, S0:T0] += part * kb[:, None] * w_bear[None]
+        kb = _M_BEARING * w_rpm * lb  # qwear: rolling contacts whose grease wears
+        qwear[:, _IX["bearing"]] += (1 - part) * kb
+        qwear[:, S0:T0] += part * kb[:, None] * w_bear[None]
         kn = _M_NUT * w_rpm * ln
-        qnut[:, _IX["nut"]] += (1 - part) * kn
-        qnut[:, S0:T0] += part * kn[:, None] * w_nut[None]
+        qwear[:, _IX["nut"]] += (1 - part) * kn
+        qwear[:, S0:T0] += part * kn[:, None] * w_nut[None]
         kf = _F_BUSHING / 60.0 * lb
         qlin[:, _IX["bushing"]] += (1 - part) * kf
         qlin[:, T0:] += part * kf[:, None] * w_bush[None]
@@ -595,7 +589,7 @@ class StrutPlant:
         if ph["thermocouple_lag"]:
             rho = np.maximum(rho, 1.0 / tau.min(axis=1))
         return _Arrays(
-            C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qnut, qvisc,
+            C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
             tca, tcb, tcw, tau, wL, rho,
         )  # fmt: skip
 
@@ -616,7 +610,7 @@ class StrutPlant:
     def _par(self) -> NDArray[np.float64]:
         tv = self.concealed.get("time_varying_parameter", {})
         return np.array(
-            [_D_SCREW, _L_TUBE, _LEAD, _ALPHA_CU, float(tv.get("per_km", 0.04)), _N_REF]
+            [_D_SCREW, _L_TUBE, _LEAD, _ALPHA_CU, float(tv.get("per_km", 0.04)), _N_REF, _L_MOTOR]
         )
 
     # ------------------------------------------------------------------ contract
@@ -739,7 +733,7 @@ class StrutPlant:
             np.ascontiguousarray(x), np.ascontiguousarray(U), float(dt),
             self.substeps(dt, specimen),
             arr.C, arr.ei, arr.ej, arr.eg, arr.A, arr.D, arr.eps, arr.hnat, arr.hrad, arr.ftype,
-            arr.xf, arr.qlin, arr.qcu, arr.qnut, arr.qvisc, arr.tca, arr.tcb, arr.tcw, arr.tctau,
+            arr.xf, arr.qlin, arr.qcu, arr.qwear, arr.qvisc, arr.tca, arr.tcb, arr.tcw, arr.tctau,
             arr.wL, _IX["winding"] if self.physics["winding_node"] else _IX["drive"],
             self._flags(), self._par(), y, xs, return_states,
         )  # fmt: skip
@@ -749,20 +743,20 @@ class StrutPlant:
 # ------------------------------------------------------------------ compiled kernel
 @nb.njit(cache=True)
 def _rhs(
-    x, v, Ta, C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qnut, qvisc,
+    x, v, Ta, C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
     tca, tcb, tcw, tctau, iw, flags, par, out,
 ):  # pragma: no cover - numba  # fmt: skip
     nn = C.shape[0]
-    nl, xflow, visc, tv, cu, tc = flags[0], flags[1], flags[2], flags[3], flags[4], flags[5]
+    nl, fan, visc, tv, cu, tc = flags[0], flags[1], flags[2], flags[3], flags[4], flags[5]
     n_rpm = abs(v) / par[2]
     h_rot = h_rotating_shaft(n_rpm, par[0])
     h_ax = h_moving_surface(abs(v) / 60.0, par[1])
     f_cu = 1.0 + par[3] * (x[iw] - 20.0) if cu else 1.0
-    f_nut = 1.0 + par[4] * x[x.shape[0] - 1] if tv else 1.0
+    f_wear = 1.0 + par[4] * x[x.shape[0] - 1] if tv else 1.0
     f_visc = (n_rpm / par[5]) ** (5.0 / 3.0) if visc else 0.0
     av = abs(v)
     for i in range(nn):
-        s = qlin[i] * av + qcu[i] * av * f_cu + qnut[i] * av * f_nut + qvisc[i] * f_visc
+        s = qlin[i] * av + qcu[i] * av * f_cu + qwear[i] * av * f_wear + qvisc[i] * f_visc
         if A[i] > 0.0:
             d = Ta - x[i]
             if nl:
@@ -776,8 +770,8 @@ def _rhs(
                 hf = h_rot
             elif ftype[i] == 2:
                 hf = h_ax
-            if xflow and xf[i] > 0.0:
-                hf = h_mixed(hf, h_cross_flow(xf[i] * av / 60.0, D[i]))
+            if fan and xf[i] > 0.0:
+                hf = h_mixed(hf, h_moving_surface(xf[i] * n_rpm, par[6]))
             h = h_mixed(hn, hf) if hf > 0.0 else hn
             s += A[i] * (h + hr) * d
         out[i] = s
@@ -797,7 +791,7 @@ def _rhs(
 
 @nb.njit(cache=True)
 def _simulate(
-    x0, U, dt, nsub, C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qnut, qvisc,
+    x0, U, dt, nsub, C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
     tca, tcb, tcw, tctau, wL, iw, flags, par, y, xs, keep,
 ):  # pragma: no cover - numba  # fmt: skip
     B, T = U.shape[0], U.shape[1]
@@ -831,22 +825,22 @@ def _simulate(
             Ta = U[b, k, 1]
             for _ in range(nsub):
                 _rhs(x, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
-                     qlin[b], qcu[b], qnut[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
+                     qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
                      par, k1)  # fmt: skip
                 for i in range(n):
                     tmp[i] = x[i] + 0.5 * h * k1[i]
                 _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
-                     qlin[b], qcu[b], qnut[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
+                     qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
                      par, k2)  # fmt: skip
                 for i in range(n):
                     tmp[i] = x[i] + 0.5 * h * k2[i]
                 _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
-                     qlin[b], qcu[b], qnut[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
+                     qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
                      par, k3)  # fmt: skip
                 for i in range(n):
                     tmp[i] = x[i] + h * k3[i]
                 _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
-                     qlin[b], qcu[b], qnut[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
+                     qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
                      par, k4)  # fmt: skip
                 for i in range(n):
                     x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
@@ -889,7 +883,7 @@ class StrutRig(Rig):
         "missing_dynamics",
     )
     effect_defaults: ClassVar[dict[str, dict[str, Any]]] = {
-        "input_dependent_heat_transfer": {"speed_ratio": 1.0},
+        "input_dependent_heat_transfer": {"air_speed": 3.0, "at_rpm": 1000.0},
         "input_nonlinearity": {"f0_scale": 1.0},
         "nonlinear_heat_transfer": {},
         "transport_delay": {"signal": "feed_rate", "delay": 600.0},
