@@ -42,7 +42,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from thermogym.models.spindle import SPINDLE_OUTPUTS
-from thermogym.rigs.base import Protocol, Rig, RigRun, SensorSpec
+from thermogym.rigs._legacy import ModelRig
+from thermogym.rigs.base import Protocol, RigRun
+from thermogym.rigs.sensors import SensorSpec
 
 __all__ = ["MODULES", "SpindleRig", "ambient_profile"]
 
@@ -93,7 +95,7 @@ def ambient_profile(
     return mean + rng.uniform(-1.0, 1.0) + daily + walk - walk[0]
 
 
-class SpindleRig(Rig):
+class SpindleRig(ModelRig):
     """Virtual spindle run-in system (paper 001, Fig. 3b)."""
 
     name = "spindle"

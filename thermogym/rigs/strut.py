@@ -32,7 +32,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from thermogym.models.strut import STRUT_OUTPUTS
-from thermogym.rigs.base import Protocol, Rig, RigRun, SensorSpec
+from thermogym.rigs._legacy import ModelRig
+from thermogym.rigs.base import Protocol, RigRun
+from thermogym.rigs.sensors import SensorSpec
 
 __all__ = ["STEP_TESTS", "StrutRig"]
 
@@ -51,7 +53,7 @@ _ROLES = {
 }
 
 
-class StrutRig(Rig):
+class StrutRig(ModelRig):
     """Virtual actuator-strut test stand (paper 000, Fig. 4)."""
 
     name = "strut"
