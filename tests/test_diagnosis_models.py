@@ -13,7 +13,8 @@ from thermogym.models.fastnet import LossNetwork, fast_or_none
 from thermogym.models.linear import FOPTDModel
 from thermogym.models.registry import get_model
 from thermogym.rigs import get_rig, run_experiment
-from thermogym.rigs.base import first_order_lag, with_hidden_node
+from thermogym.rigs._legacy import with_hidden_node
+from thermogym.rigs.base import first_order_lag
 
 _BASE = {
     "inputs": ["u"],

@@ -42,20 +42,25 @@ def rig_names() -> list[str]:
     return list(_RIGS)
 
 
-def get_rig(name: str, effects: Sequence[str | EffectSpec] = ()) -> Rig:
-    """Build the rig called ``name``, optionally carrying extra physics.
+def get_rig(name: str, effects: Sequence[str | EffectSpec] = (), *, off: Sequence[str] = ()) -> Rig:
+    """Build the rig called ``name``, optionally carrying concealed effects.
 
     Parameters
     ----------
     name : str
-        ``axt211``, ``spindle`` or ``strut``.
+        One of :func:`rig_names`.
     effects : sequence of str or EffectSpec
         ``NAME[:k=v,...]`` effects from the vocabulary (see :data:`EFFECT_NAMES`).
+    off : sequence of str
+        Rows of the rig's table of extra physics to switch off (rigs with a
+        true plant of their own).
     """
     try:
         cls = _RIGS[name]
     except KeyError:
         raise UnknownNameError(f"unknown rig {name!r}; rigs are {rig_names()}") from None
+    if off:
+        return cls(effects, off=off)
     return cls(effects)
 
 

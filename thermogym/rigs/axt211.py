@@ -44,7 +44,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from thermogym.rigs.base import Protocol, Rig, RigRun, SensorSpec
+from thermogym.rigs._legacy import ModelRig
+from thermogym.rigs.base import Protocol, RigRun
+from thermogym.rigs.sensors import SensorSpec
 
 __all__ = ["AXT211Rig", "pwm_profile"]
 
@@ -79,7 +81,7 @@ def pwm_profile(t: np.ndarray, period: float, duty: float = 0.5) -> np.ndarray:
     return ((np.mod(t, period) / period) < duty).astype(float)
 
 
-class AXT211Rig(Rig):
+class AXT211Rig(ModelRig):
     """Virtual AXT211 test bench (paper 002)."""
 
     name = "axt211"
