@@ -1,7 +1,8 @@
 """Numerics shared by the machine-tool rigs' true plants (strut, spindle); no plant equations.
 
-Specimen factors drawn from a spread table, finite-volume weights of an
-interval on a segmented body, and an accumulator of symmetric conductances.
+Factors on physical estimates with a log-uniform spread, finite-volume weights
+of an interval on a segmented body, and an accumulator of symmetric
+conductances.
 
 Examples
 --------
@@ -14,65 +15,64 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym._checks import integer
-from thermogym.errors import ShapeError, UnknownNameError
+from thermogym.errors import ParameterError
+from thermogym.rigs.base import PhysicalParameter
 
-__all__ = ["Links", "check_factors", "draw_factors", "nominal_factors", "segment_weights"]
+__all__ = ["Links", "RatioParameter", "ratio_parameters", "segment_weights"]
 
 #: A spread table: factor -> (low, high, what it multiplies and why).
 Spread = Mapping[str, tuple[float, float, str]]
 
 
-def nominal_factors(spread: Spread, n: int = 1) -> dict[str, NDArray[np.float64]]:
-    """``n`` specimens at the physical estimates (every factor 1)."""
-    n = integer("n", n, lo=1)
-    return {k: np.ones(n) for k in spread}
+@dataclass(frozen=True)
+class RatioParameter(PhysicalParameter):
+    """A physical estimate whose true value lies between two ratios of it, log-uniformly.
 
+    A spread such as "+200/−70 %" (paper 000's appendix) says the true value
+    lies between 0.3 and 3 times the estimate with no preferred side: a
+    log-uniform draw treats ×3 and ÷3.3 alike. ``nominal`` is the estimate;
+    :meth:`draw` returns ``nominal · exp(U(ln low, ln high))``.
 
-def draw_factors(spread: Spread, rng: np.random.Generator, n: int = 1) -> dict[str, Any]:
-    """``n`` specimens, each factor drawn log-uniformly in its ``[low, high]``.
+    Parameters
+    ----------
+    low, high : float
+        Ratios bounding the true value (``0 < low <= 1 <= high``).
 
-    A ratio's uncertainty such as "+200/−70 %" says the true value lies between
-    0.3 and 3 times the estimate, with no preferred side: log-uniform draws
-    treat ×3 and ÷3.3 alike.
+    Examples
+    --------
+    >>> p = RatioParameter("loss", 1.0, "1", "loss factor", "estimate", low=0.3, high=3.0)
+    >>> v = p.draw(np.random.default_rng(0), 1000)
+    >>> bool(v.min() >= 0.3 and v.max() <= 3.0), round(float(np.median(np.log(v))), 1)
+    (True, -0.1)
     """
-    n = integer("n", n, lo=1)
-    return {
-        k: np.exp(rng.uniform(math.log(lo), math.log(hi), n)) for k, (lo, hi, _) in spread.items()
-    }
 
+    low: float = 1.0
+    high: float = 1.0
 
-def check_factors(rig: str, spread: Spread, specimen: Mapping[str, Any]) -> dict[str, Any]:
-    """Specimen factors as arrays of one common length B (missing ones are 1).
-
-    Raises
-    ------
-    UnknownNameError
-        A factor that is not in the spread table.
-    ShapeError
-        Lengths that differ, or values that are not finite and positive.
-    """
-    bad = [k for k in specimen if k not in spread]
-    if bad:
-        raise UnknownNameError(
-            f"{rig} specimen factor(s) {bad} unknown; factors are {list(spread)}"
-        )
-    arrs = {k: np.atleast_1d(np.asarray(specimen.get(k, 1.0), dtype=float)) for k in spread}
-    B = max(a.size for a in arrs.values())
-    out = {}
-    for k, a in arrs.items():
-        if a.ndim != 1 or a.size not in (1, B) or not np.all(np.isfinite(a)) or np.any(a <= 0):
-            raise ShapeError(
-                f"{rig} specimen factor {k!r} is {a.tolist()}; expected positive numbers, "
-                f"one or {B} of them"
+    def __post_init__(self) -> None:
+        if not (0 < self.low <= 1.0 <= self.high < math.inf):
+            raise ParameterError(
+                f"{self.name}: ratios [{self.low}, {self.high}], expected 0 < low <= 1 <= high"
             )
-        out[k] = np.broadcast_to(a, (B,)).copy()
-    return out
+
+    def draw(self, rng: np.random.Generator, n: int) -> NDArray[np.float64]:
+        """``n`` values (one uniform number each, always drawn)."""
+        z = rng.uniform(math.log(self.low), math.log(self.high), n)
+        return self.nominal * np.exp(z)
+
+
+def ratio_parameters(spread: Spread, source: str) -> tuple[RatioParameter, ...]:
+    """Factors on the physical estimates (nominal 1) from a spread table."""
+    return tuple(
+        RatioParameter(k, 1.0, "1", what, source, low=lo, high=hi, spread_source=what, lower=0.0)
+        for k, (lo, hi, what) in spread.items()
+    )
 
 
 def segment_weights(edges: NDArray[np.float64], a: float, b: float) -> NDArray[np.float64]:

@@ -124,7 +124,7 @@ The rig's spindle is one specimen drawn from :data:`SPREAD` with seed
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -132,7 +132,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym._checks import integer, positive
+from thermogym._checks import integer
 from thermogym._jitcache import cache_depends_on
 from thermogym.errors import ConfigError, ShapeError, UnknownNameError
 from thermogym.rigs import _convection
@@ -143,14 +143,18 @@ from thermogym.rigs._convection import (
     h_radiation,
     h_rotating_shaft,
 )
-from thermogym.rigs._machine import (
-    Links,
-    check_factors,
-    draw_factors,
-    nominal_factors,
-    segment_weights,
+from thermogym.rigs._machine import Links, ratio_parameters, segment_weights
+from thermogym.rigs.base import (
+    EffectSpec,
+    ExtraPhysics,
+    PlantRun,
+    Protocol,
+    Rig,
+    RigRun,
+    Specimens,
+    TruePlant,
 )
-from thermogym.rigs.base import Protocol, Rig, RigRun, SensorSpec
+from thermogym.rigs.sensors import Sensor
 
 __all__ = [
     "CONVERSION_HZ",
@@ -180,15 +184,64 @@ CONVERSION_HZ = 4.17
 _UNITS = {"speed": "rpm", "T_amb": "°C", **{k: "°C" for k in TEMPERATURES}}
 _ROLES = {"speed": "input", "T_amb": "disturbance", **{k: "output" for k in TEMPERATURES}}
 
-#: Extra physics of the rig (the table of the module docstring), all on by default.
-PHYSICS: tuple[str, ...] = (
-    "friction_power_law",
-    "thermal_preload",
-    "lubricant_viscosity",
-    "rotating_convection",
-    "heat_partition",
-    "sensor_mounting",
+#: The rig's table: what it has that the identified model lacks (switch: ``off=[name]``).
+EXTRAS: tuple[ExtraPhysics, ...] = (
+    ExtraPhysics(
+        "friction_power_law",
+        "viscous bearing friction grows with speed to the power 5/3 beside the load term",
+        "Palmgren: M_0 = 1e-7 f_0 (ν n)^(2/3) d_m³, M_1 = f_1 F d_m (Harris, Rolling "
+        "Bearing Analysis; SKF catalogue)",
+        "58 % of the bearing heat at 6000 rpm; the heat grows as n^1.4 from 4000 to 8000 rpm",
+        "the same heat at 6000 rpm, proportional to speed (as the model)",
+    ),
+    ExtraPhysics(
+        "thermal_preload",
+        "the preload grows as the inner ring runs warmer than the outer ring",
+        "radial expansion α d ΔT = 0.9 µm/K against ~45 N/µm of contact stiffness",
+        "k_th = 40 N/K on a 200 N preload: +20 % of the load friction per kelvin",
+        "constant preload",
+    ),
+    ExtraPhysics(
+        "lubricant_viscosity",
+        "the base oil's viscosity falls with temperature",
+        "ISO VG 22: 22 mm²/s at 40 °C, 4.3 mm²/s at 100 °C, ν = ν_40 exp(−0.027 (T − 40))",
+        "−1.8 % of the viscous friction per kelvin",
+        "viscosity at 40 °C",
+    ),
+    ExtraPhysics(
+        "rotating_convection",
+        "nose and pulley rotate in the air",
+        "Nu = 0.133 Re_ω^(2/3) Pr^(1/3) (Kays & Bjorklund 1958; Bossmanns & Tu, ref. [3] of 001)",
+        "160 W/(m² K) on the nose at 6000 rpm against 7 in still air",
+        "free convection and radiation only",
+    ),
+    ExtraPhysics(
+        "distributed_nodes",
+        "shaft, bearing sleeve and outer housing conduct; each bearing has two rings",
+        "001 section 2.2.1 (Brecher et al.: bearings are the heat sources); the heat "
+        "equation along each body",
+        "60 nodes (30 shaft, 10 sleeve, 10 housing segments, 8 rings, pulley, bracket); the "
+        "model: 14",
+        "3 shaft and 2 + 2 housing segments",
+    ),
+    ExtraPhysics(
+        "heat_partition",
+        "friction heat shared by the inner and the outer ring",
+        "Blok's heat partition, equal shares for equal materials",
+        "50 % into the inner ring",
+        "all into the outer ring",
+    ),
+    ExtraPhysics(
+        "sensor_mounting",
+        "RTD probes lag their mounting points",
+        "spring-loaded probes on the outer rings, a probe in the sleeve, adhesive pads on "
+        "the outer housing (001 Fig. 3c)",
+        "τ = 40 s (rings), 60 s (sleeve), 120 s (outer housing) × the specimen's rtd_tau",
+        "the readings are the node temperatures",
+    ),
 )
+#: Switch names of :data:`EXTRAS`.
+PHYSICS: tuple[str, ...] = tuple(e.name for e in EXTRAS)
 
 #: Specimen spread: factor -> (low, high, what it multiplies); drawn log-uniformly.
 SPREAD: dict[str, tuple[float, float, str]] = {
@@ -267,83 +320,123 @@ class _Arrays:
     rho: NDArray[np.float64]  # (B,)
 
 
-class SpindlePlant:
+class SpindlePlant(TruePlant):
     """The spindle's true plant: a batch of specimens, stepped in compiled code.
 
     Parameters
     ----------
-    physics : mapping of str to bool, optional
-        Items of :data:`PHYSICS` to switch off.
-    concealed : mapping of str to mapping, optional
-        Concealed effects acting in the plant (``input_nonlinearity``,
-        ``input_dependent_heat_transfer``, ``nonlinear_heat_transfer``,
-        ``time_varying_parameter``, ``sensor_lag``, ``missing_dynamics``) with
-        their settings.
+    off : iterable of str
+        Rows of :attr:`extras` to switch off.
+    effects : sequence of str or EffectSpec
+        Concealed effects of the plant (:attr:`supported_effects`).
     n_shaft, n_housing : int
-        Segments of the shaft and of each housing (at least 1).
+        Segments of the shaft and of each housing (``distributed_nodes`` off:
+        3 and 2, about the model's resolution).
 
     Notes
     -----
-    State: node temperatures [°C], the seven RTD probes [°C], then the grease
-    share in the rolling path (1 after a night at rest; used by the concealed
-    ``time_varying_parameter``). Exogenous ``u = [speed (rpm), T_amb (°C)]``
-    held over each step; RK4 with fixed sub-steps, ``h ρ ≤ 1``.
+    State (:attr:`state_names`): node temperatures [°C], the seven RTD probes
+    [°C], then the grease share in the rolling path (1 after a night at rest;
+    used by the concealed ``time_varying_parameter``). Inputs
+    ``u = [speed (rpm), T_amb (°C)]`` held over each sample; RK4 with fixed
+    sub-steps, ``h ρ ≤ 1``.
 
     Examples
     --------
     >>> import numpy as np
     >>> p = SpindlePlant()
     >>> u = np.column_stack([np.full(25, 6000.0), np.full(25, 22.0)])
-    >>> y, _ = p.simulate(u, 3600.0, p.nominal_specimen())
-    >>> bool(y[0, -1, 2] > 40.0)  # front bearing C after a day at 6000 rpm
+    >>> run = p.simulate(u, 3600.0, p.nominal())
+    >>> bool(run.output("T_front_bearing_C")[0, -1] > 35.0)  # after a day at 6000 rpm
     True
     """
 
-    exogenous_names: tuple[str, ...] = ("speed", "T_amb")
-    output_names: tuple[str, ...] = TEMPERATURES
+    name = "spindle"
+    input_names = ("speed", "T_amb")
+    output_names = TEMPERATURES
+    hidden_names = (
+        *(f"T_inner_ring_{b[0]}" for b in _BEARINGS),
+        "T_shaft_max",
+        "T_pulley",
+        "grease_share",
+    )
+    units: ClassVar[dict[str, str]] = {
+        **_UNITS,
+        **{f"T_inner_ring_{b[0]}": "°C" for b in _BEARINGS},
+        "T_shaft_max": "°C",
+        "T_pulley": "°C",
+        "grease_share": "1",
+    }
+    max_step = 5.0
+    parameters = ratio_parameters(SPREAD, "the rig's physical estimate (module docstring)")
+    extras = EXTRAS
+    supported_effects = (
+        "input_nonlinearity",
+        "input_dependent_heat_transfer",
+        "nonlinear_heat_transfer",
+        "time_varying_parameter",
+        "unmeasured_disturbance",
+        "transport_delay",
+        "missing_dynamics",
+    )
+    effect_defaults: ClassVar[dict[str, dict[str, Any]]] = {
+        "input_nonlinearity": {"k_c": 5.0},
+        "input_dependent_heat_transfer": {"air_speed": 1.5, "at_rpm": 6000.0},
+        "nonlinear_heat_transfer": {},
+        "time_varying_parameter": {"churn": 0.6, "tau_h": 1.5, "rest_h": 8.0},
+        "unmeasured_disturbance": {"signal": "T_amb", "amplitude": 2.0, "period": 5 * 3600.0},
+        "transport_delay": {"signal": "speed", "delay": 600.0},
+        "missing_dynamics": {"C": 60000.0, "G": 4.0, "g_air": 1.0},
+    }
 
     def __init__(
         self,
         *,
-        physics: Mapping[str, bool] | None = None,
-        concealed: Mapping[str, Mapping[str, Any]] | None = None,
+        off: Iterable[str] = (),
+        effects: Sequence[str | EffectSpec] = (),
         n_shaft: int = 30,
         n_housing: int = 10,
     ) -> None:
-        phys = dict(physics or {})
-        bad = [k for k in phys if k not in PHYSICS]
-        if bad:
-            raise UnknownNameError(f"spindle rig physics {bad} unknown; items are {list(PHYSICS)}")
-        self.physics = {k: bool(phys.get(k, True)) for k in PHYSICS}
-        self.concealed = {k: dict(v) for k, v in (concealed or {}).items()}
-        self.n_shaft = integer("n_shaft", n_shaft, lo=1)
-        self.n_housing = integer("n_housing", n_housing, lo=1)
+        super().__init__(off=off, effects=effects)
+        self.physics = dict(self.switches)
+        self.concealed = {e.name: self.effect(e.name) or {} for e in self.effects}
+        if self.physics["distributed_nodes"]:
+            self.n_shaft = integer("n_shaft", n_shaft, lo=1)
+            self.n_housing = integer("n_housing", n_housing, lo=1)
+        else:
+            self.n_shaft, self.n_housing = 3, 2
         # nodes: pulley, bracket, 4 inner rings, 4 outer rings, shaft, sleeve, outer housing
         self._first = {"shaft": 10, "sleeve": 10 + self.n_shaft}
         self._first["outer"] = self._first["sleeve"] + self.n_housing
         self.n_nodes = self._first["outer"] + self.n_housing
-        self.n_states = self.n_nodes + 7 + 1
+        self.state_names = (  # type: ignore[misc]
+            "T_pulley",
+            "T_bracket",
+            *(f"T_inner_ring_{b[0]}" for b in _BEARINGS),
+            *(f"T_outer_ring_{b[0]}" for b in _BEARINGS),
+            *(f"T_shaft_{i}" for i in range(self.n_shaft)),
+            *(f"T_sleeve_{i}" for i in range(self.n_housing)),
+            *(f"T_outer_{i}" for i in range(self.n_housing)),
+            *(f"RTD_{k}" for k in TEMPERATURES),
+            "grease_share",
+        )
+        self.n_states = len(self.state_names)
         self._cache: dict[int, tuple[Any, _Arrays]] = {}
 
-    def nominal_specimen(self, n: int = 1) -> dict[str, NDArray[np.float64]]:
-        """``n`` specimens at the rig's physical estimates."""
-        return nominal_factors(SPREAD, n)
-
-    def draw_specimens(
-        self, rng: np.random.Generator, n: int = 1
-    ) -> dict[str, NDArray[np.float64]]:
-        """``n`` specimens drawn log-uniformly from :data:`SPREAD`."""
-        return draw_factors(SPREAD, rng, n)
-
-    def arrays(self, specimen: Mapping[str, Any]) -> _Arrays:
-        """Kernel arrays for a batch of specimens (cached for the same dict object)."""
-        hit = self._cache.get(id(specimen))
-        if hit is not None and hit[0] is specimen:
+    def arrays(self, specimens: Specimens) -> _Arrays:
+        """Kernel arrays for a batch of specimens (cached per Specimens object)."""
+        hit = self._cache.get(id(specimens))
+        if hit is not None and hit[0] is specimens:
             return hit[1]
-        arr = self._build(check_factors("spindle", SPREAD, specimen))
+        missing = [k for k in SPREAD if k not in specimens]
+        if missing:
+            raise UnknownNameError(
+                f"spindle specimens lack {missing}; they need {list(SPREAD)} (SpindlePlant.nominal)"
+            )
+        arr = self._build({k: specimens[k] for k in SPREAD})
         if len(self._cache) > 8:
             self._cache.clear()
-        self._cache[id(specimen)] = (specimen, arr)
+        self._cache[id(specimens)] = (specimens, arr)
         return arr
 
     def _build(self, sp: dict[str, NDArray[np.float64]]) -> _Arrays:
@@ -453,14 +546,6 @@ class SpindlePlant:
             dtype=np.int64,
         )
         tau = np.array(_RTD_TAU)[None] * sp["rtd_tau"][:, None]
-        lag = cc.get("sensor_lag")
-        if lag is not None:
-            sig = str(lag.get("signal", "T_front_outer_housing"))
-            if sig not in TEMPERATURES:
-                raise ConfigError(
-                    f"effect 'sensor_lag' names signal {sig!r}; RTDs are {list(TEMPERATURES)}"
-                )
-            tau[:, TEMPERATURES.index(sig)] = float(lag.get("tau", 600.0))
         tot = L.totals(nn) + gb
         h_hi = 250.0 if ph["rotating_convection"] else 30.0
         rho = np.max((tot + A * h_hi) / C, axis=1)
@@ -506,12 +591,11 @@ class SpindlePlant:
         )
 
     # ------------------------------------------------------------------ contract
-    def initial_state(
-        self, specimen: Mapping[str, Any], T_amb: float | NDArray[np.float64]
-    ) -> NDArray[np.float64]:
-        """At rest at the ambient, after a night (grease back in the rolling path)."""
-        B = self.arrays(specimen).C.shape[0]
-        Ta = np.broadcast_to(np.asarray(T_amb, dtype=float), (B,))
+    def initial_state(self, specimens: Specimens, u0: NDArray[np.float64]) -> NDArray[np.float64]:
+        """At rest at the ambient ``u0[..., 1]`` after a night (grease back in the rolling path)."""
+        B = specimens.n
+        u0 = np.asarray(u0, dtype=float)
+        Ta = np.broadcast_to(u0[..., 1] if u0.ndim else u0, (B,))
         x = np.repeat(Ta[:, None], self.n_states, axis=1)
         x[:, -1] = 1.0
         return x
@@ -520,127 +604,109 @@ class SpindlePlant:
         self,
         x: NDArray[np.float64],
         u: NDArray[np.float64],
-        dt: float,
-        specimen: Mapping[str, Any],
+        dt: float | NDArray[np.float64],
+        specimens: Specimens,
     ) -> NDArray[np.float64]:
-        """Advance ``x`` (B, n_x) by ``dt`` [s] with ``u`` (B, 2) held."""
-        U = np.repeat(np.asarray(u, dtype=float).reshape(-1, 1, 2), 2, axis=1)
-        _, xs = self.simulate(U, dt, specimen, x0=x, return_states=True)
-        return xs[:, 1].copy()  # type: ignore[index]
+        """The state (B, n_x) after ``dt`` seconds with ``u`` (B, 2) or (2,) held."""
+        B = specimens.n
+        d = self.substeps(dt, self.max_step, B)
+        if np.any(d != d[0]):
+            raise ShapeError("the spindle plant steps every specimen by the same dt")
+        if d[0] == 0.0:
+            return np.array(x, dtype=float, copy=True)
+        U = np.repeat(np.broadcast_to(np.asarray(u, dtype=float), (B, 2))[:, None], 2, axis=1)
+        xs = np.empty((B, 2, self.n_states))
+        y = np.empty((B, 2, 7))
+        self._kernel(np.asarray(x, dtype=float), U, float(d[0]), specimens, y, xs, True)
+        return xs[:, 1].copy()
 
     def outputs(
-        self, x: NDArray[np.float64], u: NDArray[np.float64] | None, specimen: Mapping[str, Any]
+        self, x: NDArray[np.float64], u: NDArray[np.float64] | None, specimens: Specimens
     ) -> NDArray[np.float64]:
         """The seven RTD readings [°C], shape (B, 7)."""
         x = np.atleast_2d(x)
         if self.physics["sensor_mounting"]:
             return x[:, self.n_nodes : self.n_nodes + 7].copy()
-        return x[:, self.arrays(specimen).rtd]
+        return x[:, self.arrays(specimens).rtd]
 
-    def hidden(self, x: NDArray[np.float64], specimen: Mapping[str, Any]) -> dict[str, Any]:
-        """Truths for virtual-sensor checks: ring, shaft and housing temperatures [°C]."""
-        x = np.atleast_2d(x)
-        S0, I0, O0 = self._first["shaft"], self._first["sleeve"], self._first["outer"]
-        out = {f"T_inner_ring_{b[0]}": x[:, 2 + k].copy() for k, b in enumerate(_BEARINGS)}
-        out |= {f"T_outer_ring_{b[0]}": x[:, 6 + k].copy() for k, b in enumerate(_BEARINGS)}
-        out["T_shaft_profile"] = x[:, S0:I0].copy()
-        out["T_sleeve_profile"] = x[:, I0:O0].copy()
-        out["T_outer_profile"] = x[:, O0 : self.n_nodes].copy()
-        out["T_pulley"] = x[:, 0].copy()
-        out["grease_share"] = x[:, -1].copy()
+    def hidden(
+        self, x: NDArray[np.float64], specimens: Specimens
+    ) -> dict[str, NDArray[np.float64]]:
+        """Truths no sensor records (:attr:`hidden_names`), each of shape (B,) (or (B, T))."""
+        x = np.asarray(x, dtype=float)
+        S0, I0 = self._first["shaft"], self._first["sleeve"]
+        out = {f"T_inner_ring_{b[0]}": x[..., 2 + k].copy() for k, b in enumerate(_BEARINGS)}
+        out["T_shaft_max"] = x[..., S0:I0].max(axis=-1)
+        out["T_pulley"] = x[..., 0].copy()
+        out["grease_share"] = x[..., -1].copy()
         return out
 
-    def substeps(self, dt: float, specimen: Mapping[str, Any]) -> int:
-        """RK4 sub-steps per ``dt`` (``h ρ ≤ 1``)."""
-        return max(1, math.ceil(dt * float(self.arrays(specimen).rho.max())))
-
     def bearing_heat(
-        self, x: NDArray[np.float64], speed: float, specimen: Mapping[str, Any]
+        self, x: NDArray[np.float64], speed: float, specimens: Specimens
     ) -> NDArray[np.float64]:
         """Friction power of the four bearings [W], shape (B, 4), at state ``x`` and ``speed``."""
-        arr = self.arrays(specimen)
-        x = np.atleast_2d(x)
+        arr = self.arrays(specimens)
+        x = np.ascontiguousarray(np.atleast_2d(x), dtype=float)
         out = np.zeros((x.shape[0], 4))
         _bearing_power(x, float(speed), arr.bir, arr.bor, arr.bpar, self._flags(), self._par(), out)
         return out
 
-    def simulate(
+    def plant_inputs(self, u: NDArray[np.float64], dt: float, t0: float) -> NDArray[np.float64]:
+        """The inputs the spindle sees: the logged speed shifted, the air disturbed."""
+        s = self.effect("transport_delay")
+        d = self.effect("unmeasured_disturbance")
+        if s is None and d is None:
+            return u
+        ua = np.array(u, dtype=float, copy=True)
+        T = ua.shape[1]
+        if s is not None:  # the speed log runs late: the spindle turned earlier
+            shift = float(s.get("delay", 600.0)) / dt
+            k = np.arange(T)
+            for b in range(ua.shape[0]):
+                ua[b, :, 0] = np.interp(k + shift, k, ua[b, :, 0], right=ua[b, -1, 0])
+        if d is not None:  # an air-conditioning cycle the ambient RTD does not see
+            t = t0 + dt * np.arange(T)
+            amp, per = float(d.get("amplitude", 2.0)), float(d.get("period", 18000.0))
+            ua[:, :, 1] += amp * np.sin(2 * np.pi * t / per + float(d.get("phase", 0.0)))
+        return ua
+
+    def rate_bound(self, specimens: Specimens) -> float:
+        """Bound of the fastest rate of the batch [1/s]."""
+        return float(self.arrays(specimens).rho.max())
+
+    def _simulate(
         self,
         u: NDArray[np.float64],
         dt: float,
-        specimen: Mapping[str, Any],
-        x0: NDArray[np.float64] | None = None,
-        t0: float = 0.0,
-        *,
-        return_states: bool = False,
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-        """Simulate a batch on a uniform grid.
-
-        Parameters
-        ----------
-        u : ndarray, shape (T, 2) or (B, T, 2)
-            Speed [rpm] and ambient temperature [°C] per sample (held).
-        dt : float
-            Sample period [s].
-        specimen : mapping
-            Specimen factors.
-        x0 : ndarray, shape (B, n_x), optional
-            Initial state (default :meth:`initial_state` at the first ambient).
-        t0 : float
-            Time of the first sample [s] (the physics is time-invariant; kept for
-            the common contract).
-        return_states : bool
-
-        Returns
-        -------
-        y : ndarray, shape (B, T, 7)
-        xs : ndarray, shape (B, T, n_x) or None
-        """
-        dt = positive("dt", dt, unit="s")
-        arr = self.arrays(specimen)
-        B = arr.C.shape[0]
-        U = np.asarray(u, dtype=float)
-        if U.ndim == 2 and B >= 1:
-            U = np.broadcast_to(U, (B, *U.shape))
-        if U.ndim == 3 and arr.C.shape[0] == 1 and U.shape[0] > 1:
-            # one specimen, several experiments: the specimen is shared
-            arr = self._repeat(arr, U.shape[0])
-            B = U.shape[0]
-        if U.ndim != 3 or U.shape[0] != B or U.shape[2] != 2 or U.shape[1] < 1:
-            raise ShapeError(
-                f"spindle rig input has shape {np.shape(u)}; expected (T, 2) or ({B}, T, 2) "
-                "with columns speed, T_amb"
-            )
-        if not np.all(np.isfinite(U)):
-            raise ShapeError("spindle rig input contains NaN or infinite values")
-        if x0 is None:
-            x = np.repeat(self.initial_state(specimen, 0.0)[:1], B, axis=0)
-            x[:, :-1] = U[:, 0, 1][:, None]
-        else:
-            x = np.array(x0, dtype=float)
-        if x.shape != (B, self.n_states):
-            raise ShapeError(f"x0 has shape {x.shape}; expected ({B}, {self.n_states})")
-        T = U.shape[1]
+        specimens: Specimens,
+        x: NDArray[np.float64],
+        t0: float,
+    ) -> PlantRun:
+        B, T, _ = u.shape
         y = np.empty((B, T, 7))
-        xs = np.empty((B, T, self.n_states)) if return_states else np.empty((1, 1, 1))
+        xs = np.empty((B, T, self.n_states))
+        self._kernel(x, u, dt, specimens, y, xs, True)
+        return PlantRun(t0 + dt * np.arange(T), u, y, xs, self.hidden(xs, specimens), TEMPERATURES)
+
+    def _kernel(
+        self,
+        x: NDArray[np.float64],
+        U: NDArray[np.float64],
+        dt: float,
+        specimens: Specimens,
+        y: NDArray[np.float64],
+        xs: NDArray[np.float64],
+        keep: bool,
+    ) -> None:
+        arr = self.arrays(specimens)
+        if x.shape != (specimens.n, self.n_states):
+            raise ShapeError(f"x has shape {x.shape}, expected ({specimens.n}, {self.n_states})")
         nsub = max(1, math.ceil(dt * float(arr.rho.max())))
         _simulate(
             np.ascontiguousarray(x), np.ascontiguousarray(U), float(dt), nsub,
             arr.C, arr.ei, arr.ej, arr.eg, arr.A, arr.gb, arr.D, arr.eps, arr.hnat, arr.hrad,
             arr.ftype, arr.bir, arr.bor, arr.bpar, arr.qbelt, arr.ipul, arr.rtd, arr.tau,
-            self._flags(), self._par(), y, xs, return_states,
-        )  # fmt: skip
-        return y, (xs if return_states else None)
-
-    @staticmethod
-    def _repeat(arr: _Arrays, B: int) -> _Arrays:
-        def rep(a: Any) -> Any:
-            return np.ascontiguousarray(np.repeat(a, B, axis=0))
-
-        return _Arrays(
-            rep(arr.C), arr.ei, arr.ej, rep(arr.eg), rep(arr.A), rep(arr.gb), arr.D, arr.eps,
-            arr.hnat, arr.hrad, arr.ftype, arr.bir, arr.bor, rep(arr.bpar), rep(arr.qbelt),
-            arr.ipul, arr.rtd, rep(arr.tau), rep(arr.rho),
+            self._flags(), self._par(), y, xs, keep,
         )  # fmt: skip
 
 
@@ -816,150 +882,67 @@ class SpindleRig(Rig):
     ----------
     effects : sequence of str or EffectSpec
         Concealed effects (``NAME[:k=v,...]``, see the module docstring).
-    physics : mapping of str to bool, optional
-        Items of :data:`PHYSICS` to switch off (tests).
+    off : iterable of str
+        Rows of the plant's table (:data:`EXTRAS`) to switch off.
     """
 
     name = "spindle"
-    model_name = "spindle"
-    sensors: ClassVar[dict[str, SensorSpec]] = {
-        k: SensorSpec(0.02, 0.001) for k in (*TEMPERATURES, "T_amb")
+    plant_cls = SpindlePlant
+    sensors: ClassVar[dict[str, Sensor]] = {
+        k: Sensor(
+            noise=0.02,
+            resolution=0.001,
+            colored=0.01,
+            colored_tau=3600.0,
+            source="PT1000 class A, AD7794 (001 Table 2: ±0.05 K at 25 °C); reference drift",
+        )
+        for k in (*TEMPERATURES, "T_amb")
     }
     supported_effects = (
-        "input_nonlinearity",
-        "input_dependent_heat_transfer",
-        "nonlinear_heat_transfer",
-        "time_varying_parameter",
-        "unmeasured_disturbance",
+        *SpindlePlant.supported_effects,
         "sensor_offset",
         "sensor_lag",
         "sensor_drift",
-        "transport_delay",
-        "missing_dynamics",
     )
     effect_defaults: ClassVar[dict[str, dict[str, Any]]] = {
-        "input_nonlinearity": {"k_c": 5.0},
-        "input_dependent_heat_transfer": {"air_speed": 1.5, "at_rpm": 6000.0},
-        "nonlinear_heat_transfer": {},
-        "time_varying_parameter": {"churn": 0.6, "tau_h": 1.5, "rest_h": 8.0},
-        "unmeasured_disturbance": {"signal": "T_amb", "amplitude": 2.0, "period": 5 * 3600.0},
+        **SpindlePlant.effect_defaults,
         "sensor_offset": {"signal": "T_front_outer_housing", "offset": 1.0},
         "sensor_lag": {"signal": "T_front_outer_housing", "tau": 600.0},
         "sensor_drift": {"signal": "T_inner_housing", "rate": 0.15},
-        "transport_delay": {"signal": "speed", "delay": 600.0},
-        "missing_dynamics": {"C": 60000.0, "G": 4.0, "g_air": 1.0},
     }
-    #: Effects the plant itself carries (the others act on what is logged).
-    plant_effects: ClassVar[tuple[str, ...]] = (
-        "input_nonlinearity",
-        "input_dependent_heat_transfer",
-        "nonlinear_heat_transfer",
-        "time_varying_parameter",
-        "sensor_lag",
-        "missing_dynamics",
-    )
 
     def __init__(
-        self, effects: Sequence[Any] = (), *, physics: Mapping[str, bool] | None = None
+        self, effects: Sequence[str | EffectSpec] = (), *, off: Iterable[str] = ()
     ) -> None:
-        super().__init__(effects)
-        self._physics = dict(physics or {})
-        self._factors: dict[str, float] | None = None
+        super().__init__(effects, off=off)
+        self.check_sensor_effects((*TEMPERATURES, "T_amb"))
 
-    def true_plant(self) -> SpindlePlant:
-        """The rig's plant with its concealed physics switched on."""
-        concealed = {
-            e.name: self._settings(e.name) or {}
-            for e in self.effects
-            if e.name in self.plant_effects
-        }
-        return SpindlePlant(physics=self._physics, concealed=concealed)
+    def plant(self) -> SpindlePlant:
+        """The true plant with this rig's plant effects and switches."""
+        return super().plant()  # type: ignore[return-value]
 
     @property
-    def specimen(self) -> dict[str, float]:
-        """Factors of this rig's spindle on the physical estimates (:data:`SPREAD`)."""
-        if self._factors is None:
-            d = SpindlePlant().draw_specimens(np.random.default_rng(SPECIMEN_SEED), 1)
-            self._factors = {k: float(v[0]) for k, v in d.items()}
-        return dict(self._factors)
+    def specimen(self) -> Specimens:
+        """The rig's spindle: drawn from :data:`SPREAD` with :data:`SPECIMEN_SEED` unless set."""
+        if self._specimen is None:
+            rng = np.random.default_rng(SPECIMEN_SEED)
+            self._specimen = self.plant().draw_specimens(rng, 1)
+        return self._specimen
 
-    def with_specimen(self, overrides: Mapping[str, float] | str) -> SpindleRig:
-        """A copy with another spindle: ``"nominal"`` or factors of :data:`SPREAD`."""
-        other = SpindleRig(self.effects, physics=self._physics)
-        if isinstance(overrides, str):
-            if overrides != "nominal":
-                raise ConfigError(f"specimen {overrides!r}; expected 'nominal' or a dict")
-            other._factors = {k: 1.0 for k in SPREAD}
-            return other
-        bad = [k for k in overrides if k not in SPREAD]
-        if bad:
-            raise UnknownNameError(
-                f"spindle specimen factor(s) {bad} unknown; factors are {list(SPREAD)} "
-                "(the rig is not the model: it has no model parameters)"
-            )
-        other._factors = {**self.specimen, **{k: float(v) for k, v in overrides.items()}}
-        return other
-
-    def plant(self) -> Any:  # noqa: D102 - the model-based plant of the base class
-        raise ConfigError(
-            "the spindle rig's plant is its own (SpindleRig.true_plant()); it is not a model"
-        )
-
-    def specimen_arrays(self) -> dict[str, NDArray[np.float64]]:
-        """The specimen of this rig as a batch of one."""
-        return {k: np.array([v]) for k, v in self.specimen.items()}
-
-    def simulate_true(  # type: ignore[override]
-        self,
-        u: NDArray[np.float64],
-        dt: float,
-        *,
-        t0: float = 0.0,
-        x0: NDArray[np.float64] | None = None,
-        rng: np.random.Generator | None = None,
-    ) -> tuple[dict[str, NDArray[np.float64]], NDArray[np.float64]]:
-        """Noise-free RTD values for recorded exogenous ``u`` (T, 2) or (B, T, 2).
-
-        Returns
-        -------
-        outputs : dict
-            Signal -> ndarray (T,) or (B, T): the RTDs as the modules see them
-            (offsets, drifts, lags included; noise excluded).
-        states : ndarray
-            Final states, shape (B, n_x).
-        """
-        plant = self.true_plant()
-        ua = np.array(u, dtype=float, copy=True)
-        single = ua.ndim == 2
-        ua = np.atleast_3d(ua) if not single else ua[None]
-        T = ua.shape[1]
-        t = t0 + dt * np.arange(T)
-        s = self._settings("transport_delay")
-        if s is not None:  # the speed log runs late: the spindle turned earlier
-            shift = float(s.get("delay", 600.0)) / dt
-            k = np.arange(T)
-            for b in range(ua.shape[0]):
-                ua[b, :, 0] = np.interp(k + shift, k, ua[b, :, 0], right=ua[b, -1, 0])
-        s = self._settings("unmeasured_disturbance")
-        if s is not None:
-            amp, per = float(s.get("amplitude", 2.0)), float(s.get("period", 18000.0))
-            ua[:, :, 1] += amp * np.sin(2 * np.pi * t / per + float(s.get("phase", 0.0)))
-        y, _ = plant.simulate(ua, dt, self.specimen_arrays(), x0=x0, t0=t0)
-        out = {n: y[:, :, i] for i, n in enumerate(TEMPERATURES)}
-        for name in ("sensor_offset", "sensor_drift"):
-            s = self._settings(name)
-            if s is None:
-                continue
-            sig = str(s.get("signal", "T_front_outer_housing"))
-            if sig not in out:
-                raise ConfigError(f"effect {name!r} names signal {sig!r}; outputs are {list(out)}")
-            if name == "sensor_offset":
-                out[sig] = out[sig] + float(s.get("offset", 1.0))
-            else:
-                out[sig] = out[sig] + float(s.get("rate", 0.15)) * (t - t0) / 3600.0
-        if single:
-            out = {k: v[0] for k, v in out.items()}
-        return out, np.empty((0,))
+    def with_specimen(self, values: Mapping[str, float] | Specimens | str) -> SpindleRig:
+        """A copy with another spindle: ``"nominal"``, a :class:`Specimens` of one, or factors."""
+        if isinstance(values, str):
+            if values != "nominal":
+                raise ConfigError(f"specimen {values!r}; expected 'nominal', a dict or Specimens")
+            values = self.plant().nominal(1)
+        elif not isinstance(values, Specimens):
+            bad = [k for k in values if k not in SPREAD]
+            if bad:
+                raise UnknownNameError(
+                    f"spindle specimen factor(s) {bad} unknown; factors are {list(SPREAD)} "
+                    "(the rig is not the model: it has no model parameters)"
+                )
+        return super().with_specimen(values)  # type: ignore[return-value]
 
     def days(
         self,
@@ -986,8 +969,10 @@ class SpindleRig(Rig):
         U = np.zeros((len(speeds), ts.size, 2))
         U[:, :, 0] = np.asarray(speeds, dtype=float)[:, None]
         U[:, :, 1] = amb[:, ::sub]
-        out, _ = self.simulate_true(U, _SIM_DT)
-        rise = np.stack([out[k] for k in TEMPERATURES], axis=2) - U[:, :, 1:2]
+        plant = self.plant()
+        spec = self.specimen.take(np.zeros(len(speeds), dtype=np.int64))
+        y = plant.simulate(U, _SIM_DT, spec).outputs
+        rise = y - U[:, :, 1:2]
         w = int(window_h * 3600 / _SIM_DT)
         stops = []
         for b in range(len(speeds)):
@@ -996,10 +981,10 @@ class SpindleRig(Rig):
             k_stop = settled[0] + w if settled.size else ts.size
             stops.append(int(min(k_stop * sub, max_run_h * 3600 / dt, n)))
             U[b, stops[-1] // sub :, 0] = 0.0
-        out, _ = self.simulate_true(U, _SIM_DT)
+        y = plant.simulate(U, _SIM_DT, spec).outputs
         out = {
-            k: np.array([np.interp(t, ts, v[b]) for b in range(len(speeds))])
-            for k, v in out.items()
+            k: np.array([np.interp(t, ts, y[b, :, i]) for b in range(len(speeds))])
+            for i, k in enumerate(TEMPERATURES)
         }
         speed_log = np.zeros((len(speeds), n))
         for b, s in enumerate(speeds):
@@ -1013,8 +998,8 @@ class SpindleRig(Rig):
             if not raw:
                 cols = {
                     "speed": speed_log[b].copy(),
-                    **self.measure({"T_amb": amb[b]}, rng),
-                    **self.measure(vals, rng),
+                    **self.measure({"T_amb": amb[b]}, rng, t),
+                    **self.measure(vals, rng, t),
                 }
                 runs.append(RigRun(eid, t, cols, dict(_UNITS), dict(_ROLES), meta, truth))
             else:
@@ -1064,7 +1049,7 @@ class SpindleRig(Rig):
             for j, name in enumerate(module):
                 sel = ch == j
                 true = np.interp(tk[sel], t, values[name])
-                meas = self.sensors[name].measure(true, rng)
+                meas = self.sensor(name).measure(true, rng, tk[sel])
                 times.append(tk[sel])
                 chans.append(np.full(sel.sum(), channels.index(name)))
                 vals.append(meas)

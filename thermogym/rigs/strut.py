@@ -128,7 +128,7 @@ The rig's strut is one specimen drawn from :data:`SPREAD` with seed
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -136,7 +136,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym._checks import integer, positive
+from thermogym._checks import integer
 from thermogym._jitcache import cache_depends_on
 from thermogym.errors import ConfigError, ShapeError, UnknownNameError
 from thermogym.rigs import _convection
@@ -147,14 +147,18 @@ from thermogym.rigs._convection import (
     h_radiation,
     h_rotating_shaft,
 )
-from thermogym.rigs._machine import (
-    Links,
-    check_factors,
-    draw_factors,
-    nominal_factors,
-    segment_weights,
+from thermogym.rigs._machine import Links, ratio_parameters, segment_weights
+from thermogym.rigs.base import (
+    EffectSpec,
+    ExtraPhysics,
+    PlantRun,
+    Protocol,
+    Rig,
+    RigRun,
+    Specimens,
+    TruePlant,
 )
-from thermogym.rigs.base import Protocol, Rig, RigRun, SensorSpec
+from thermogym.rigs.sensors import Sensor
 
 __all__ = [
     "PHYSICS",
@@ -191,15 +195,64 @@ _ROLES = {
     **{k: "output" for k in TEMPERATURES},
 }
 
-#: Extra physics of the rig (the table of the module docstring), all on by default.
-PHYSICS: tuple[str, ...] = (
-    "forced_convection",
-    "copper_resistance",
-    "winding_node",
-    "heat_partition",
-    "stroke_contacts",
-    "thermocouple_lag",
+#: The rig's table: what it has that the identified model lacks (switch: ``off=[name]``).
+EXTRAS: tuple[ExtraPhysics, ...] = (
+    ExtraPhysics(
+        "conduction_1d",
+        "heat conduction along the screw and the push tube, 60 finite volumes each",
+        "000 section 4, eq (6): the heat equation; the model lumps the screw in 5, the "
+        "tube in 3 nodes",
+        "60 + 60 segments of 25 and 20 mm",
+        "5 screw and 3 tube segments (the model's resolution)",
+    ),
+    ExtraPhysics(
+        "forced_convection",
+        "convection of the rotating screw and of the push tube moving through the air",
+        "rotating shaft Nu = 0.133 Re_ω^(2/3) Pr^(1/3) (Kays & Bjorklund 1958); flat plate "
+        "Nu = 0.664 Re^(1/2) Pr^(1/3) (Incropera eq 7.30); mixed with free convection, n = 3 "
+        "(Incropera eq 9.64)",
+        "screw air exchange ×7.0 at 20 m/min, ×8.3 at 30 (vs still air); tube +3 %",
+        "free convection and radiation only",
+    ),
+    ExtraPhysics(
+        "copper_resistance",
+        "the copper loss of the motor follows the winding resistance",
+        "α_Cu = 3.93e-3 1/K, annealed copper at 20 °C (IEC 60028)",
+        "+3.9 % of the 30 W copper loss (at 20 m/min) per kelvin of winding rise",
+        "copper loss at its 20 °C value",
+    ),
+    ExtraPhysics(
+        "winding_node",
+        "the winding is a heat capacity of its own behind the stator",
+        "servo motor datasheets: winding-housing R_th ≈ 0.12 K/W for ~3 kW",
+        "1.2 kJ/K, 8 W/K to the housing",
+        "the copper loss heats the housing node (one node of both capacities)",
+    ),
+    ExtraPhysics(
+        "heat_partition",
+        "friction heat is shared by the two contact partners",
+        "Blok's heat partition, equal shares for equal materials (steel on steel)",
+        "50 % of the bearing, nut and bushing heat enters the screw or the tube",
+        "all of it into the nut, bearing and bushing nodes (as the model assumes)",
+    ),
+    ExtraPhysics(
+        "stroke_contacts",
+        "contacts of moving parts averaged over the stroke",
+        "periodic motion over 0.6 m at constant speed: the stroke period (seconds) is far "
+        "below every thermal time constant",
+        "nut ↔ screw over 0.7 m, screw ↔ push tube (enclosed air, 0.5 W/(m K)), tube ↔ bushing",
+        "every contact at the stroke's mean position",
+    ),
+    ExtraPhysics(
+        "thermocouple_lag",
+        "thermocouple junctions lag their mounting points",
+        "sheathed thermocouples in blind holes with paste",
+        "τ = 30 s (× the specimen's tc_tau, 0.5-2)",
+        "the readings are the node temperatures",
+    ),
 )
+#: Switch names of :data:`EXTRAS`.
+PHYSICS: tuple[str, ...] = tuple(e.name for e in EXTRAS)
 
 #: Specimen spread: factor -> (low, high, what it multiplies); drawn log-uniformly.
 SPREAD: dict[str, tuple[float, float, str]] = {
@@ -343,87 +396,117 @@ class _Arrays:
     rho: NDArray[np.float64]  # (B,) bound of the fastest rate [1/s]
 
 
-class StrutPlant:
+class StrutPlant(TruePlant):
     """The strut's true plant: a batch of specimens, stepped in compiled code.
 
     Parameters
     ----------
-    physics : mapping of str to bool, optional
-        Items of :data:`PHYSICS` to switch off (all on by default).
-    concealed : mapping of str to mapping, optional
-        Concealed effects by vocabulary name with their settings (the rig passes
-        its effects with their defaults filled in); only the plant's own ones
-        (``input_dependent_heat_transfer``, ``input_nonlinearity``,
-        ``nonlinear_heat_transfer``, ``time_varying_parameter``, ``sensor_lag``,
-        ``missing_dynamics``) act here.
+    off : iterable of str
+        Rows of :attr:`extras` to switch off.
+    effects : sequence of str or EffectSpec
+        Concealed effects of the plant (:attr:`supported_effects`, settings over
+        :attr:`effect_defaults`).
     n_screw, n_tube : int
-        Finite-volume segments of the screw and of the push tube (at least 1).
+        Finite-volume segments of the screw and of the push tube (``conduction_1d``
+        off: 5 and 3, the model's resolution).
 
     Notes
     -----
-    State: the temperatures of the lumped nodes, the screw and tube segments
-    [°C], then the seven thermocouple junctions [°C] and the travelled distance
-    [km]. Exogenous ``u = [feed_rate (m/min), T_air (°C)]`` is held over each
-    step. Integration: classical RK4 with fixed sub-steps from a bound of the
-    fastest rate of the batch (Gershgorin), so that ``h ρ ≤ 1``.
+    State (:attr:`state_names`): the temperatures of the lumped nodes, the screw
+    and tube segments [°C], the seven thermocouple junctions [°C] and the
+    travelled distance [km]. Inputs ``u = [feed_rate (m/min), T_air (°C)]``
+    are held over each sample. Integration: classical RK4 with fixed
+    sub-steps from a bound of the fastest rate of the batch (Gershgorin), so
+    that ``h ρ ≤ 1``.
 
     Examples
     --------
     >>> import numpy as np
     >>> p = StrutPlant()
-    >>> spec = p.nominal_specimen(2)
     >>> u = np.column_stack([np.full(40, 20.0), np.full(40, 21.0)])
-    >>> y, _ = p.simulate(u, 140.9, spec)
-    >>> y.shape
+    >>> run = p.simulate(u, 140.9, p.nominal(2))
+    >>> run.outputs.shape
     (2, 40, 8)
-    >>> bool(y[0, -1, 3] > y[0, 0, 3] + 2.0)  # the nut warms up
+    >>> bool(run.output("T_nut")[0, -1] > run.output("T_nut")[0, 0] + 2.0)  # the nut warms
     True
     """
 
-    exogenous_names: tuple[str, ...] = ("feed_rate", "T_air")
-    output_names: tuple[str, ...] = OUTPUTS
+    name = "strut"
+    input_names = ("feed_rate", "T_air")
+    output_names = OUTPUTS
+    hidden_names = ("T_winding", "T_screw_mean", "T_screw_max", "T_tube_mean", "travel_km")
+    units: ClassVar[dict[str, str]] = {
+        **_UNITS,
+        "T_winding": "°C",
+        "T_screw_mean": "°C",
+        "T_screw_max": "°C",
+        "T_tube_mean": "°C",
+        "travel_km": "km",
+    }
+    max_step = 20.0
+    parameters = ratio_parameters(SPREAD, "the rig's physical estimate (module docstring)")
+    extras = EXTRAS
+    supported_effects = (
+        "input_dependent_heat_transfer",
+        "input_nonlinearity",
+        "nonlinear_heat_transfer",
+        "time_varying_parameter",
+        "transport_delay",
+        "unmeasured_disturbance",
+        "missing_dynamics",
+    )
+    effect_defaults: ClassVar[dict[str, dict[str, Any]]] = {
+        "input_dependent_heat_transfer": {"air_speed": 3.0, "at_rpm": 1000.0},
+        "input_nonlinearity": {"f0_scale": 1.0},
+        "nonlinear_heat_transfer": {},
+        "time_varying_parameter": {"per_km": 0.04},
+        "transport_delay": {"signal": "feed_rate", "delay": 600.0},
+        "unmeasured_disturbance": {"signal": "T_air", "amplitude": 1.5, "period": 7200.0},
+        "missing_dynamics": {"C": 20000.0, "G": 2.0, "g_air": 0.5},
+    }
 
     def __init__(
         self,
         *,
-        physics: Mapping[str, bool] | None = None,
-        concealed: Mapping[str, Mapping[str, Any]] | None = None,
+        off: Iterable[str] = (),
+        effects: Sequence[str | EffectSpec] = (),
         n_screw: int = 60,
         n_tube: int = 60,
     ) -> None:
-        phys = dict(physics or {})
-        bad = [k for k in phys if k not in PHYSICS]
-        if bad:
-            raise UnknownNameError(f"strut rig physics {bad} unknown; items are {list(PHYSICS)}")
-        self.physics = {k: bool(phys.get(k, True)) for k in PHYSICS}
-        self.concealed = {k: dict(v) for k, v in (concealed or {}).items()}
-        self.n_screw = integer("n_screw", n_screw, lo=1)
-        self.n_tube = integer("n_tube", n_tube, lo=1)
+        super().__init__(off=off, effects=effects)
+        self.physics = dict(self.switches)
+        self.concealed = {e.name: self.effect(e.name) or {} for e in self.effects}
+        if self.physics["conduction_1d"]:
+            self.n_screw = integer("n_screw", n_screw, lo=1)
+            self.n_tube = integer("n_tube", n_tube, lo=1)
+        else:
+            self.n_screw, self.n_tube = 5, 3
         self.n_nodes = _NL + self.n_screw + self.n_tube
-        self.n_states = self.n_nodes + len(TEMPERATURES) + 1
+        self.state_names = (  # type: ignore[misc]
+            *(f"T_{k}" for k in _LUMPED),
+            *(f"T_screw_{i}" for i in range(self.n_screw)),
+            *(f"T_tube_{i}" for i in range(self.n_tube)),
+            *(f"TC_{k}" for k in TEMPERATURES),
+            "travel_km",
+        )
+        self.n_states = len(self.state_names)
         self._cache: dict[int, tuple[Any, _Arrays]] = {}
 
-    # ----------------------------------------------------------------- specimens
-    def nominal_specimen(self, n: int = 1) -> dict[str, NDArray[np.float64]]:
-        """``n`` specimens at the rig's physical estimates (every factor 1)."""
-        return nominal_factors(SPREAD, n)
-
-    def draw_specimens(
-        self, rng: np.random.Generator, n: int = 1
-    ) -> dict[str, NDArray[np.float64]]:
-        """``n`` specimens drawn log-uniformly from :data:`SPREAD`."""
-        return draw_factors(SPREAD, rng, n)
-
     # --------------------------------------------------------------- the network
-    def arrays(self, specimen: Mapping[str, Any]) -> _Arrays:
-        """Kernel arrays for a batch of specimens (cached for the same dict object)."""
-        hit = self._cache.get(id(specimen))
-        if hit is not None and hit[0] is specimen:
+    def arrays(self, specimens: Specimens) -> _Arrays:
+        """Kernel arrays for a batch of specimens (cached per Specimens object)."""
+        hit = self._cache.get(id(specimens))
+        if hit is not None and hit[0] is specimens:
             return hit[1]
-        arr = self._build(check_factors("strut", SPREAD, specimen))
+        missing = [k for k in SPREAD if k not in specimens]
+        if missing:
+            raise UnknownNameError(
+                f"strut specimens lack {missing}; they need {list(SPREAD)} (StrutPlant.nominal)"
+            )
+        arr = self._build({k: specimens[k] for k in SPREAD})
         if len(self._cache) > 8:
             self._cache.clear()
-        self._cache[id(specimen)] = (specimen, arr)
+        self._cache[id(specimens)] = (specimens, arr)
         return arr
 
     def _build(self, sp: dict[str, NDArray[np.float64]]) -> _Arrays:
@@ -567,15 +650,6 @@ class StrutPlant:
         at(1.10, T0, Nt, _L_TUBE, 5)  # front of the push tube
         at(0.15, T0, Nt, _L_TUBE, 6)  # rear of the push tube
         tau = np.full((B, 7), _TC_TAU) * sp["tc_tau"][:, None]
-        lag = cc.get("sensor_lag")
-        if lag is not None:
-            sig = str(lag.get("signal", "T_nut"))
-            if sig not in TEMPERATURES:
-                raise ConfigError(
-                    f"effect 'sensor_lag' names signal {sig!r}; thermocouples are "
-                    f"{list(TEMPERATURES)}"
-                )
-            tau[:, TEMPERATURES.index(sig)] = float(lag.get("tau", 300.0))
         # elongation path: screw from the bearing pair to the nut's mean position, the tube
         wL = np.zeros(nn)
         wL[S0:T0] = segment_weights(xs_e, 0.5 * sum(_BEARING), 0.5 * sum(_STROKE)) * (
@@ -616,15 +690,19 @@ class StrutPlant:
     # ------------------------------------------------------------------ contract
     def initial_state(
         self,
-        specimen: Mapping[str, Any],
-        T_air: float | NDArray[np.float64],
+        specimens: Specimens,
+        u0: NDArray[np.float64],
         *,
         drive_warm_K: float = 0.0,
     ) -> NDArray[np.float64]:
-        """At rest at the air temperature (``drive_warm_K``: motor still warm), shape (B, n_x)."""
-        arr = self.arrays(specimen)
-        B = arr.C.shape[0]
-        Ta = np.broadcast_to(np.asarray(T_air, dtype=float), (B,))
+        """At rest at the air temperature ``u0[..., 1]``, shape (B, n_x).
+
+        ``drive_warm_K``: the motor has not fully cooled down since the last run
+        (winding and housing that much above the air, the flange 60 % of it).
+        """
+        B = specimens.n
+        u0 = np.asarray(u0, dtype=float)
+        Ta = np.broadcast_to(u0[..., 1] if u0.ndim else u0, (B,))
         x = np.repeat(Ta[:, None], self.n_states, axis=1)
         x[:, -1] = 0.0
         if drive_warm_K:
@@ -637,20 +715,27 @@ class StrutPlant:
         self,
         x: NDArray[np.float64],
         u: NDArray[np.float64],
-        dt: float,
-        specimen: Mapping[str, Any],
+        dt: float | NDArray[np.float64],
+        specimens: Specimens,
     ) -> NDArray[np.float64]:
-        """Advance ``x`` (B, n_x) by ``dt`` [s] with ``u`` (B, 2) held; returns the new state."""
-        u = np.asarray(u, dtype=float)
-        U = np.repeat(u.reshape(-1, 1, 2), 2, axis=1)
-        _, xs = self.simulate(U, dt, specimen, x0=x, return_states=True)
-        return xs[:, 1].copy()  # type: ignore[index]
+        """The state (B, n_x) after ``dt`` seconds with ``u`` (B, 2) or (2,) held."""
+        B = specimens.n
+        d = self.substeps(dt, self.max_step, B)
+        if np.any(d != d[0]):
+            raise ShapeError("the strut plant steps every specimen by the same dt")
+        if d[0] == 0.0:
+            return np.array(x, dtype=float, copy=True)
+        U = np.repeat(np.broadcast_to(np.asarray(u, dtype=float), (B, 2))[:, None], 2, axis=1)
+        xs = np.empty((B, 2, self.n_states))
+        y = np.empty((B, 2, len(OUTPUTS)))
+        self._kernel(np.asarray(x, dtype=float), U, float(d[0]), specimens, y, xs, True)
+        return xs[:, 1].copy()
 
     def outputs(
-        self, x: NDArray[np.float64], u: NDArray[np.float64] | None, specimen: Mapping[str, Any]
+        self, x: NDArray[np.float64], u: NDArray[np.float64] | None, specimens: Specimens
     ) -> NDArray[np.float64]:
-        """The seven thermocouple readings and the elongation [µm], shape (B, 8)."""
-        arr = self.arrays(specimen)
+        """The seven thermocouple readings [°C] and the elongation [µm], shape (B, 8)."""
+        arr = self.arrays(specimens)
         x = np.atleast_2d(x)
         nn = self.n_nodes
         if self.physics["thermocouple_lag"]:
@@ -660,84 +745,98 @@ class StrutPlant:
         dL = 1e6 * _ALPHA_STEEL * ((x[:, :nn] - _T_REF) @ arr.wL)
         return np.column_stack([T, dL])
 
-    def hidden(self, x: NDArray[np.float64], specimen: Mapping[str, Any]) -> dict[str, Any]:
-        """Truths a virtual sensor may want: node temperatures and profiles [°C]."""
-        arr = self.arrays(specimen)
+    def hidden(
+        self, x: NDArray[np.float64], specimens: Specimens
+    ) -> dict[str, NDArray[np.float64]]:
+        """Truths no sensor records (:attr:`hidden_names`), each of shape (B,)."""
+        x = np.asarray(x, dtype=float)
+        S0, T0 = _NL, _NL + self.n_screw
+        return {
+            "T_winding": x[..., _IX["winding"]].copy(),
+            "T_screw_mean": x[..., S0:T0].mean(axis=-1),
+            "T_screw_max": x[..., S0:T0].max(axis=-1),
+            "T_tube_mean": x[..., T0 : self.n_nodes].mean(axis=-1),
+            "travel_km": x[..., -1].copy(),
+        }
+
+    def profiles(
+        self, x: NDArray[np.float64], specimens: Specimens
+    ) -> dict[str, NDArray[np.float64]]:
+        """Temperature profiles along the screw and the push tube and their positions [m]."""
         x = np.atleast_2d(x)
         S0, T0 = _NL, _NL + self.n_screw
-        out = {f"T_{k}": x[:, _IX[k]].copy() for k in _LUMPED if k != "bracket"}
-        out["T_screw_profile"] = x[:, S0:T0].copy()
-        out["T_tube_profile"] = x[:, T0 : self.n_nodes].copy()
-        out["T_spindle_true"] = (1 - arr.tcw[4]) * x[:, arr.tca[4]] + arr.tcw[4] * x[:, arr.tcb[4]]
-        out["travel_km"] = x[:, -1].copy()
-        return out
+        return {
+            "x_screw": (np.arange(self.n_screw) + 0.5) * _L_SCREW / self.n_screw,
+            "T_screw": x[:, S0:T0].copy(),
+            "x_tube": (np.arange(self.n_tube) + 0.5) * _L_TUBE / self.n_tube,
+            "T_tube": x[:, T0 : self.n_nodes].copy(),
+        }
 
-    def substeps(self, dt: float, specimen: Mapping[str, Any]) -> int:
-        """RK4 sub-steps per ``dt`` (``h ρ ≤ 1`` for the fastest rate of the batch)."""
-        return max(1, math.ceil(dt * float(self.arrays(specimen).rho.max())))
+    def plant_inputs(self, u: NDArray[np.float64], dt: float, t0: float) -> NDArray[np.float64]:
+        """The inputs the strut sees: the logged feed rate shifted, the air disturbed.
 
-    def simulate(
+        ``transport_delay``: the feed-rate log runs ``delay`` seconds behind the
+        temperature logger, so the strut moved that much earlier than logged.
+        ``unmeasured_disturbance``: an air-conditioning cycle around the strut
+        that the air sensor does not see.
+        """
+        s = self.effect("transport_delay")
+        d = self.effect("unmeasured_disturbance")
+        if s is None and d is None:
+            return u
+        ua = np.array(u, dtype=float, copy=True)
+        T = ua.shape[1]
+        if s is not None:
+            shift = float(s.get("delay", 600.0)) / dt
+            k = np.arange(T)
+            for b in range(ua.shape[0]):
+                ua[b, :, 0] = np.interp(k + shift, k, ua[b, :, 0], right=ua[b, -1, 0])
+        if d is not None:
+            t = t0 + dt * np.arange(T)
+            amp, per = float(d.get("amplitude", 1.5)), float(d.get("period", 7200.0))
+            ua[:, :, 1] += amp * np.sin(2 * np.pi * t / per + float(d.get("phase", 0.0)))
+        return ua
+
+    def rate_bound(self, specimens: Specimens) -> float:
+        """Bound of the fastest rate of the batch [1/s] (Gershgorin)."""
+        return float(self.arrays(specimens).rho.max())
+
+    def _simulate(
         self,
         u: NDArray[np.float64],
         dt: float,
-        specimen: Mapping[str, Any],
-        x0: NDArray[np.float64] | None = None,
-        t0: float = 0.0,
-        *,
-        return_states: bool = False,
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-        """Simulate a batch on a uniform grid.
+        specimens: Specimens,
+        x: NDArray[np.float64],
+        t0: float,
+    ) -> PlantRun:
+        B, T, _ = u.shape
+        y = np.empty((B, T, len(OUTPUTS)))
+        xs = np.empty((B, T, self.n_states))
+        self._kernel(x, u, dt, specimens, y, xs, True)
+        hid = self.hidden(xs, specimens)
+        return PlantRun(t0 + dt * np.arange(T), u, y, xs, hid, OUTPUTS)
 
-        Parameters
-        ----------
-        u : ndarray, shape (T, 2) or (B, T, 2)
-            Feed rate [m/min] and air temperature [°C] per sample, held over the
-            sample (zero-order hold).
-        dt : float
-            Sample period [s].
-        specimen : mapping
-            Specimen factors (:meth:`draw_specimens`, :meth:`nominal_specimen`).
-        x0 : ndarray, shape (B, n_x), optional
-            Initial state (default: at rest at the first air temperature).
-        t0 : float
-            Time of the first sample [s] (unused: the strut's physics is
-            time-invariant; kept for the common contract).
-        return_states : bool
-
-        Returns
-        -------
-        y : ndarray, shape (B, T, 8)
-            ``y[:, k]`` at ``t0 + k dt`` (:attr:`output_names`).
-        xs : ndarray, shape (B, T, n_x) or None
-        """
-        dt = positive("dt", dt, unit="s")
-        arr = self.arrays(specimen)
-        B = arr.C.shape[0]
-        U = np.asarray(u, dtype=float)
-        if U.ndim == 2:
-            U = np.broadcast_to(U, (B, *U.shape))
-        if U.ndim != 3 or U.shape[0] != B or U.shape[2] != 2 or U.shape[1] < 1:
-            raise ShapeError(
-                f"strut rig input has shape {np.shape(u)}; expected (T, 2) or ({B}, T, 2) "
-                "with columns feed_rate, T_air"
-            )
-        if not np.all(np.isfinite(U)):
-            raise ShapeError("strut rig input contains NaN or infinite values")
-        x = self.initial_state(specimen, U[:, 0, 1]) if x0 is None else np.array(x0, dtype=float)
-        if x.shape != (B, self.n_states):
-            raise ShapeError(f"x0 has shape {x.shape}; expected ({B}, {self.n_states})")
-        T = U.shape[1]
-        y = np.empty((B, T, 8))
-        xs = np.empty((B, T, self.n_states)) if return_states else np.empty((1, 1, 1))
+    def _kernel(
+        self,
+        x: NDArray[np.float64],
+        U: NDArray[np.float64],
+        dt: float,
+        specimens: Specimens,
+        y: NDArray[np.float64],
+        xs: NDArray[np.float64],
+        keep: bool,
+    ) -> None:
+        arr = self.arrays(specimens)
+        if x.shape != (specimens.n, self.n_states):
+            raise ShapeError(f"x has shape {x.shape}, expected ({specimens.n}, {self.n_states})")
+        nsub = max(1, math.ceil(dt * float(arr.rho.max())))
         _simulate(
-            np.ascontiguousarray(x), np.ascontiguousarray(U), float(dt),
-            self.substeps(dt, specimen),
+            np.ascontiguousarray(x), np.ascontiguousarray(U), float(dt), nsub,
             arr.C, arr.ei, arr.ej, arr.eg, arr.A, arr.D, arr.eps, arr.hnat, arr.hrad, arr.ftype,
             arr.xf, arr.qlin, arr.qcu, arr.qwear, arr.qvisc, arr.tca, arr.tcb, arr.tcw, arr.tctau,
             arr.wL, _IX["winding"] if self.physics["winding_node"] else _IX["drive"],
-            self._flags(), self._par(), y, xs, return_states,
+            self._flags(), self._par(), y, xs, keep,
         )  # fmt: skip
-        return y, (xs if return_states else None)
 
 
 # ------------------------------------------------------------------ compiled kernel
@@ -851,10 +950,6 @@ cache_depends_on(_simulate, _convection)
 
 
 # ----------------------------------------------------------------------- the rig
-def _sine(t: NDArray[np.float64], amplitude: float, period: float, phase: float) -> Any:
-    return amplitude * np.sin(2 * np.pi * t / period + phase)
-
-
 class StrutRig(Rig):
     """Virtual actuator-strut test stand (paper 000, Fig. 4) around :class:`StrutPlant`.
 
@@ -862,153 +957,90 @@ class StrutRig(Rig):
     ----------
     effects : sequence of str or EffectSpec
         Concealed effects (``NAME[:k=v,...]``, see the module docstring).
+    off : iterable of str
+        Rows of the plant's table (:data:`EXTRAS`) to switch off.
     """
 
     name = "strut"
-    model_name = "strut"
-    sensors: ClassVar[dict[str, SensorSpec]] = {
-        **{k: SensorSpec(0.05, 0.01) for k in (*TEMPERATURES, "T_air")},
-        "dL_um": SensorSpec(0.5, 0.1),
+    plant_cls = StrutPlant
+    sensors: ClassVar[dict[str, Sensor]] = {
+        **{
+            k: Sensor(
+                noise=0.05,
+                resolution=0.01,
+                colored=0.03,
+                colored_tau=1800.0,
+                spike_rate=0.02,
+                spike_size=1.0,
+                source="type K thermocouples, 16-bit logger: white noise, cold-junction "
+                "wander, rare spikes from the servo drive's PWM",
+            )
+            for k in TEMPERATURES
+        },
+        "T_air": Sensor(
+            noise=0.05,
+            resolution=0.01,
+            colored=0.03,
+            colored_tau=1800.0,
+            lag=60.0,
+            source="air thermocouple in a radiation shield",
+        ),
+        "dL_um": Sensor(
+            noise=0.5,
+            resolution=0.1,
+            colored=0.3,
+            colored_tau=600.0,
+            source="laser interferometer; wander of the air's refractive index",
+        ),
     }
     supported_effects = (
-        "input_dependent_heat_transfer",
-        "input_nonlinearity",
-        "nonlinear_heat_transfer",
-        "transport_delay",
-        "time_varying_parameter",
-        "unmeasured_disturbance",
+        *StrutPlant.supported_effects,
         "sensor_offset",
         "sensor_lag",
         "sensor_drift",
-        "missing_dynamics",
     )
     effect_defaults: ClassVar[dict[str, dict[str, Any]]] = {
-        "input_dependent_heat_transfer": {"air_speed": 3.0, "at_rpm": 1000.0},
-        "input_nonlinearity": {"f0_scale": 1.0},
-        "nonlinear_heat_transfer": {},
-        "transport_delay": {"signal": "feed_rate", "delay": 600.0},
-        "time_varying_parameter": {"per_km": 0.04},
-        "unmeasured_disturbance": {"signal": "T_air", "amplitude": 1.5, "period": 7200.0},
+        **StrutPlant.effect_defaults,
         "sensor_offset": {"signal": "T_nut", "offset": 1.0},
         "sensor_lag": {"signal": "T_nut", "tau": 300.0},
         "sensor_drift": {"signal": "T_spindle", "rate": 0.3},
-        "missing_dynamics": {"C": 20000.0, "G": 2.0, "g_air": 0.5},
     }
-    #: Effects the plant itself carries (the others act on what is logged).
-    plant_effects: ClassVar[tuple[str, ...]] = (
-        "input_dependent_heat_transfer",
-        "input_nonlinearity",
-        "nonlinear_heat_transfer",
-        "time_varying_parameter",
-        "sensor_lag",
-        "missing_dynamics",
-    )
 
     def __init__(
-        self,
-        effects: Sequence[Any] = (),
-        *,
-        physics: Mapping[str, bool] | None = None,
+        self, effects: Sequence[str | EffectSpec] = (), *, off: Iterable[str] = ()
     ) -> None:
-        super().__init__(effects)
-        self._physics = dict(physics or {})
-        self._factors: dict[str, float] | None = None
+        super().__init__(effects, off=off)
+        self.check_sensor_effects(OUTPUTS)
 
-    def true_plant(self) -> StrutPlant:
-        """The rig's plant with its concealed physics switched on."""
-        concealed = {
-            e.name: self._settings(e.name) or {}
-            for e in self.effects
-            if e.name in self.plant_effects
-        }
-        return StrutPlant(physics=self._physics, concealed=concealed)
+    def plant(self) -> StrutPlant:
+        """The true plant with this rig's plant effects and switches."""
+        return super().plant()  # type: ignore[return-value]
 
     @property
-    def specimen(self) -> dict[str, float]:
-        """Factors of this rig's strut on the physical estimates (:data:`SPREAD`)."""
-        if self._factors is None:
-            d = StrutPlant().draw_specimens(np.random.default_rng(SPECIMEN_SEED), 1)
-            self._factors = {k: float(v[0]) for k, v in d.items()}
-        return dict(self._factors)
+    def specimen(self) -> Specimens:
+        """The rig's strut: drawn from :data:`SPREAD` with :data:`SPECIMEN_SEED` unless set."""
+        if self._specimen is None:
+            rng = np.random.default_rng(SPECIMEN_SEED)
+            self._specimen = self.plant().draw_specimens(rng, 1)
+        return self._specimen
 
-    def with_specimen(self, overrides: Mapping[str, float] | str) -> StrutRig:
-        """A copy of this rig with another strut: ``"nominal"`` or factors of :data:`SPREAD`.
+    def with_specimen(self, values: Mapping[str, float] | Specimens | str) -> StrutRig:
+        """A copy with another strut: ``"nominal"``, a :class:`Specimens` of one, or factors.
 
-        Factors left out stay at this rig's values.
+        Factors (names of :data:`SPREAD`) left out keep this rig's values.
         """
-        other = StrutRig(self.effects, physics=self._physics)
-        if isinstance(overrides, str):
-            if overrides != "nominal":
-                raise ConfigError(f"specimen {overrides!r}; expected 'nominal' or a dict")
-            other._factors = {k: 1.0 for k in SPREAD}
-            return other
-        bad = [k for k in overrides if k not in SPREAD]
-        if bad:
-            raise UnknownNameError(
-                f"strut specimen factor(s) {bad} unknown; factors are {list(SPREAD)} "
-                "(the rig is not the model: it has no ratio parameters)"
-            )
-        other._factors = {**self.specimen, **{k: float(v) for k, v in overrides.items()}}
-        return other
-
-    def plant(self) -> Any:  # noqa: D102 - the model-based plant of the base class
-        raise ConfigError(
-            "the strut rig's plant is its own (StrutRig.true_plant()); it is not a model"
-        )
-
-    def specimen_arrays(self) -> dict[str, NDArray[np.float64]]:
-        """The specimen of this rig as a batch of one."""
-        return {k: np.array([v]) for k, v in self.specimen.items()}
-
-    def simulate_true(  # type: ignore[override]
-        self,
-        u: NDArray[np.float64],
-        dt: float,
-        *,
-        t0: float = 0.0,
-        x0: NDArray[np.float64] | None = None,
-        rng: np.random.Generator | None = None,
-        drive_warm_K: float = 0.0,
-    ) -> tuple[dict[str, NDArray[np.float64]], NDArray[np.float64]]:
-        """Noise-free sensor values for the recorded exogenous ``u`` (T, 2), effects included.
-
-        Returns
-        -------
-        outputs : dict
-            The seven thermocouples and ``dL_um`` as the sensors see them (offsets,
-            drifts and lags included, noise excluded).
-        states : ndarray, shape (T, n_x)
-        """
-        plant = self.true_plant()
-        spec = self.specimen_arrays()
-        ua = np.array(u, dtype=float, copy=True)
-        t = t0 + dt * np.arange(ua.shape[0])
-        s = self._settings("transport_delay")
-        if s is not None:  # the feed-rate log runs late: the plant moved earlier
-            shift = float(s.get("delay", 600.0)) / dt
-            k = np.arange(ua.shape[0])
-            ua[:, 0] = np.interp(k + shift, k, ua[:, 0], right=ua[-1, 0])
-        s = self._settings("unmeasured_disturbance")
-        if s is not None:  # the air around the strut, not where the air sensor is
-            phase = float(s.get("phase", 0.0))
-            amp, per = float(s.get("amplitude", 1.5)), float(s.get("period", 7200.0))
-            ua[:, 1] += _sine(t, amp, per, phase)
-        if x0 is None:
-            x0 = plant.initial_state(spec, ua[0, 1], drive_warm_K=drive_warm_K)
-        y, xs = plant.simulate(ua, dt, spec, x0=np.atleast_2d(x0), t0=t0, return_states=True)
-        out = {n: y[0, :, i].copy() for i, n in enumerate(OUTPUTS)}
-        for name in ("sensor_offset", "sensor_drift"):
-            s = self._settings(name)
-            if s is None:
-                continue
-            sig = str(s.get("signal", "T_nut"))
-            if sig not in out:
-                raise ConfigError(f"effect {name!r} names signal {sig!r}; outputs are {list(out)}")
-            if name == "sensor_offset":
-                out[sig] = out[sig] + float(s.get("offset", 1.0))
-            else:
-                out[sig] = out[sig] + float(s.get("rate", 0.3)) * (t - t0) / 3600.0
-        return out, xs[0]  # type: ignore[index]
+        if isinstance(values, str):
+            if values != "nominal":
+                raise ConfigError(f"specimen {values!r}; expected 'nominal', a dict or Specimens")
+            values = self.plant().nominal(1)
+        elif not isinstance(values, Specimens):
+            bad = [k for k in values if k not in SPREAD]
+            if bad:
+                raise UnknownNameError(
+                    f"strut specimen factor(s) {bad} unknown; factors are {list(SPREAD)} "
+                    "(the rig is not the model: it has no ratio parameters)"
+                )
+        return super().with_specimen(values)  # type: ignore[return-value]
 
     def step_test(
         self,
@@ -1026,26 +1058,22 @@ class StrutRig(Rig):
         air = T_air + 0.3 * np.sin(2 * np.pi * t / (6 * 3600.0) + rng.uniform(0, 2 * np.pi))
         u = np.column_stack([np.full(n, float(feed_rate)), air])
         u[0, 0] = 0.0  # the first sample is taken at rest, the movement starts right after
-        out, _ = self.simulate_true(u, period_s, rng=rng, drive_warm_K=drive_warm_K)
+        plant, spec = self.plant(), self.specimen
+        x0 = plant.initial_state(spec, u[0], drive_warm_K=drive_warm_K)
+        run = plant.simulate(u, period_s, spec, x0=x0)
+        vals = {k: run.outputs[0, :, i] for i, k in enumerate(OUTPUTS)}
         cols = {
             "feed_rate": u[:, 0].copy(),
-            **self.measure({"T_air": air}, rng),
-            **self.measure({k: out[k] for k in OUTPUTS}, rng),
+            **self.measure({"T_air": air}, rng, t),
+            **self.measure(vals, rng, t),
         }
         meta = {
             "feed_rate_m_min": float(feed_rate),
             "period_s": period_s,
             "duration_min": duration_min,
         }
-        return RigRun(
-            f"strut-step-{feed_rate:g}",
-            t,
-            cols,
-            dict(_UNITS),
-            dict(_ROLES),
-            meta,
-            truth={k: out[k] for k in OUTPUTS},
-        )
+        truth = {**vals, "T_air": air, **{k: v[0] for k, v in run.hidden.items()}}
+        return RigRun(f"strut-step-{feed_rate:g}", t, cols, dict(_UNITS), dict(_ROLES), meta, truth)
 
 
 def _steps(
