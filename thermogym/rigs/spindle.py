@@ -674,6 +674,38 @@ class SpindlePlant(TruePlant):
         """Bound of the fastest rate of the batch [1/s]."""
         return float(self.arrays(specimens).rho.max())
 
+    def heat_flows(
+        self, x: NDArray[np.float64], u: NDArray[np.float64], specimens: Specimens
+    ) -> dict[str, NDArray[np.float64]]:
+        """Heat balance at state ``x`` (B, n_x) with inputs ``u`` (B, 2) or (2,).
+
+        Returns
+        -------
+        dict
+            ``source`` (B, n_nodes) heat generated in each node [W]; ``g_air``
+            (B, n_nodes) its conductance to the ambient (air and bench) [W/K];
+            ``generated`` and ``to_air`` (B,) totals [W]; ``stored`` (B,)
+            ``Σ C dT/dt`` [W].
+        """
+        arr = self.arrays(specimens)
+        B, nn = specimens.n, self.n_nodes
+        X = np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (B, self.n_states)))
+        U = np.ascontiguousarray(np.broadcast_to(np.asarray(u, dtype=float), (B, 2)))
+        rec = np.zeros((B, 2, nn))
+        dxdt = np.zeros((B, self.n_states))
+        _flows(
+            X, U, arr.C, arr.ei, arr.ej, arr.eg, arr.A, arr.gb, arr.D, arr.eps, arr.hnat,
+            arr.hrad, arr.ftype, arr.bir, arr.bor, arr.bpar, arr.qbelt, arr.ipul, arr.rtd,
+            arr.tau, self._flags(), self._par(), rec, dxdt,
+        )  # fmt: skip
+        return {
+            "source": rec[:, 0],
+            "g_air": rec[:, 1],
+            "generated": rec[:, 0].sum(axis=1),
+            "to_air": np.sum(rec[:, 1] * (X[:, :nn] - U[:, 1:2]), axis=1),
+            "stored": np.sum(arr.C * dxdt[:, :nn], axis=1),
+        }
+
     def _simulate(
         self,
         u: NDArray[np.float64],
@@ -744,13 +776,15 @@ def _bearing_power(x, n, bir, bor, bpar, flags, par, out):  # pragma: no cover -
 @nb.njit(cache=True)
 def _rhs(
     x, n, Ta, C, ei, ej, eg, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar, qbelt, ipul,
-    rtd, tau, flags, par, out,
+    rtd, tau, flags, par, out, rec, record,
 ):  # pragma: no cover - numba  # fmt: skip
+    # dx/dt into out; with record, each node's heat source [W] and conductance to the
+    # ambient [W/K] into rec[0], rec[1]
     nn = C.shape[0]
     nl, tv, part, lag = flags[0], flags[1], flags[4], flags[5]
     n = abs(n)
     for i in range(nn):
-        s = 0.0
+        g = gb[i]
         if A[i] > 0.0:
             d = Ta - x[i]
             if nl:
@@ -765,9 +799,11 @@ def _rhs(
                 h = h_mixed(hn, h_moving_surface(par[4] * n, par[5]))
             else:
                 h = hn
-            s += A[i] * (h + hr) * d
-        s += gb[i] * (Ta - x[i])
-        out[i] = s
+            g += A[i] * (h + hr)
+        out[i] = g * (Ta - x[i])
+        if record:
+            rec[0, i] = 0.0
+            rec[1, i] = g
     for e in range(ei.shape[0]):
         a = ei[e]
         b = ej[e]
@@ -775,12 +811,17 @@ def _rhs(
         out[a] += q
         out[b] -= q
     if n > 0.0:
+        share = 0.5 if part else 0.0
         for k in range(4):
             p = _friction(x, n, bir, bor, bpar, flags, par, k)
-            share = 0.5 if part else 0.0
             out[bir[k]] += share * p
             out[bor[k]] += (1.0 - share) * p
+            if record:
+                rec[0, bir[k]] += share * p
+                rec[0, bor[k]] += (1.0 - share) * p
         out[ipul] += qbelt * n
+        if record:
+            rec[0, ipul] += qbelt * n
     for i in range(nn):
         out[i] /= C[i]
     for c in range(7):
@@ -807,6 +848,7 @@ def _simulate(
     k3 = np.empty(n_x)
     k4 = np.empty(n_x)
     tmp = np.empty(n_x)
+    rec = np.empty((2, 1))
     lag = flags[5]
     for b in range(B):
         x[:] = x0[b]
@@ -821,24 +863,39 @@ def _simulate(
             Ta = U[b, k, 1]
             for _ in range(nsub):
                 _rhs(x, n, Ta, C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad, ftype,
-                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k1)  # fmt: skip
+                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k1, rec,
+                     False)  # fmt: skip
                 for i in range(n_x):
                     tmp[i] = x[i] + 0.5 * h * k1[i]
                 _rhs(tmp, n, Ta, C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad, ftype,
-                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k2)  # fmt: skip
+                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k2, rec,
+                     False)  # fmt: skip
                 for i in range(n_x):
                     tmp[i] = x[i] + 0.5 * h * k2[i]
                 _rhs(tmp, n, Ta, C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad, ftype,
-                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k3)  # fmt: skip
+                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k3, rec,
+                     False)  # fmt: skip
                 for i in range(n_x):
                     tmp[i] = x[i] + h * k3[i]
                 _rhs(tmp, n, Ta, C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad, ftype,
-                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k4)  # fmt: skip
+                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k4, rec,
+                     False)  # fmt: skip
                 for i in range(n_x):
                     x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
-for _k in (_rhs, _simulate):
+@nb.njit(cache=True)
+def _flows(
+    X, U, C, ei, ej, eg, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar, qbelt, ipul, rtd,
+    tau, flags, par, rec, dxdt,
+):  # pragma: no cover - numba  # fmt: skip
+    for b in range(X.shape[0]):
+        _rhs(X[b], U[b, 0], U[b, 1], C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad,
+             ftype, bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, dxdt[b], rec[b],
+             True)  # fmt: skip
+
+
+for _k in (_rhs, _simulate, _flows):
     cache_depends_on(_k, _convection)
 
 

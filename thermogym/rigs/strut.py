@@ -801,6 +801,39 @@ class StrutPlant(TruePlant):
         """Bound of the fastest rate of the batch [1/s] (Gershgorin)."""
         return float(self.arrays(specimens).rho.max())
 
+    def heat_flows(
+        self, x: NDArray[np.float64], u: NDArray[np.float64], specimens: Specimens
+    ) -> dict[str, NDArray[np.float64]]:
+        """Heat balance at state ``x`` (B, n_x) with inputs ``u`` (B, 2) or (2,).
+
+        Returns
+        -------
+        dict
+            ``source`` (B, n_nodes) heat generated in each node [W]; ``g_air``
+            (B, n_nodes) its conductance to the air [W/K]; ``generated`` and
+            ``to_air`` (B,) their totals [W]; ``stored`` (B,) ``Σ C dT/dt`` [W].
+        """
+        arr = self.arrays(specimens)
+        B, nn = specimens.n, self.n_nodes
+        X = np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (B, self.n_states)))
+        U = np.ascontiguousarray(np.broadcast_to(np.asarray(u, dtype=float), (B, 2)))
+        rec = np.zeros((B, 2, nn))
+        dxdt = np.zeros((B, self.n_states))
+        _flows(
+            X, U, arr.C, arr.ei, arr.ej, arr.eg, arr.A, arr.D, arr.eps, arr.hnat, arr.hrad,
+            arr.ftype, arr.xf, arr.qlin, arr.qcu, arr.qwear, arr.qvisc, arr.tca, arr.tcb, arr.tcw,
+            arr.tctau, _IX["winding"] if self.physics["winding_node"] else _IX["drive"],
+            self._flags(), self._par(), rec, dxdt,
+        )  # fmt: skip
+        to_air = np.sum(rec[:, 1] * (X[:, :nn] - U[:, 1:2]), axis=1)
+        return {
+            "source": rec[:, 0],
+            "g_air": rec[:, 1],
+            "generated": rec[:, 0].sum(axis=1),
+            "to_air": to_air,
+            "stored": np.sum(arr.C * dxdt[:, :nn], axis=1),
+        }
+
     def _simulate(
         self,
         u: NDArray[np.float64],
@@ -843,8 +876,10 @@ class StrutPlant(TruePlant):
 @nb.njit(cache=True)
 def _rhs(
     x, v, Ta, C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
-    tca, tcb, tcw, tctau, iw, flags, par, out,
+    tca, tcb, tcw, tctau, iw, flags, par, out, rec, record,
 ):  # pragma: no cover - numba  # fmt: skip
+    # dx/dt into out; with record, each node's heat source [W] and air conductance [W/K]
+    # into rec[0], rec[1]
     nn = C.shape[0]
     nl, fan, visc, tv, cu, tc = flags[0], flags[1], flags[2], flags[3], flags[4], flags[5]
     n_rpm = abs(v) / par[2]
@@ -856,6 +891,7 @@ def _rhs(
     av = abs(v)
     for i in range(nn):
         s = qlin[i] * av + qcu[i] * av * f_cu + qwear[i] * av * f_wear + qvisc[i] * f_visc
+        g = 0.0
         if A[i] > 0.0:
             d = Ta - x[i]
             if nl:
@@ -872,8 +908,11 @@ def _rhs(
             if fan and xf[i] > 0.0:
                 hf = h_mixed(hf, h_moving_surface(xf[i] * n_rpm, par[6]))
             h = h_mixed(hn, hf) if hf > 0.0 else hn
-            s += A[i] * (h + hr) * d
-        out[i] = s
+            g = A[i] * (h + hr)
+        if record:
+            rec[0, i] = s
+            rec[1, i] = g
+        out[i] = s + g * (Ta - x[i])
     for e in range(ei.shape[0]):
         a = ei[e]
         b = ej[e]
@@ -903,6 +942,7 @@ def _simulate(
     k3 = np.empty(n)
     k4 = np.empty(n)
     tmp = np.empty(n)
+    rec = np.empty((2, 1))
     tc = flags[5]
     for b in range(B):
         x[:] = x0[b]
@@ -925,27 +965,40 @@ def _simulate(
             for _ in range(nsub):
                 _rhs(x, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
                      qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
-                     par, k1)  # fmt: skip
+                     par, k1, rec, False)  # fmt: skip
                 for i in range(n):
                     tmp[i] = x[i] + 0.5 * h * k1[i]
                 _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
                      qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
-                     par, k2)  # fmt: skip
+                     par, k2, rec, False)  # fmt: skip
                 for i in range(n):
                     tmp[i] = x[i] + 0.5 * h * k2[i]
                 _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
                      qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
-                     par, k3)  # fmt: skip
+                     par, k3, rec, False)  # fmt: skip
                 for i in range(n):
                     tmp[i] = x[i] + h * k3[i]
                 _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
                      qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
-                     par, k4)  # fmt: skip
+                     par, k4, rec, False)  # fmt: skip
                 for i in range(n):
                     x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
+@nb.njit(cache=True)
+def _flows(
+    X, U, C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
+    tca, tcb, tcw, tctau, iw, flags, par, rec, dxdt,
+):  # pragma: no cover - numba  # fmt: skip
+    # per specimen: node sources and air conductances (rec), and dx/dt
+    for b in range(X.shape[0]):
+        _rhs(X[b], U[b, 0], U[b, 1], C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
+             qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags, par,
+             dxdt[b], rec[b], True)  # fmt: skip
+
+
 cache_depends_on(_rhs, _convection)
+cache_depends_on(_flows, _convection)
 cache_depends_on(_simulate, _convection)
 
 
