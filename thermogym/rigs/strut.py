@@ -47,11 +47,11 @@ rig is built with them. Each entry: physical source; size; switch.
     Rotating screw, ``Nu = 0.133 Re_ω^(2/3) Pr^(1/3)`` (Kays & Bjorklund);
     push tube moving along itself, laminar flat plate
     ``Nu = 0.664 Re^(1/2) Pr^(1/3)`` (Incropera eq 7.30); each mixed with free
-    convection (n = 3). The screw's air exchange is 7.0× its still-air value
-    at 20 m/min, 8.3× at 30; the tube's +3 %. Switch ``forced_convection``.
+    convection (n = 3). The screw's air exchange is 6.3× its still-air value
+    at 20 m/min, 8.1× at 30; the tube's +2 % at 20 m/min, +4 % at 30. Switch ``forced_convection``.
 ``copper_resistance``
     The copper loss follows the winding resistance, α_Cu = 3.93e-3 1/K
-    (IEC 60028): +3.9 % of the 30 W copper loss per kelvin of winding rise.
+    (IEC 60028): +0.39 % of the 30 W copper loss per kelvin of winding rise.
     Switch ``copper_resistance``.
 ``winding_node``
     The winding is its own heat capacity behind the stator (1.2 kJ/K,
@@ -87,7 +87,7 @@ recordings or their metadata names them):
   its shaft fan blows along the housing at 3 m/s at 1000 rpm (``air_speed``,
   ``at_rpm``; ∝ motor speed, belt 1:1), laminar flat-plate convection over
   the 0.3 m housing (Incropera eq 7.30) mixed with free convection: the drive
-  and flange exchange 1.9× more heat with the air at 20 m/min, 2.1× at 30.
+  and flange exchange 2.0× more heat with the air at 20 m/min, 2.3× at 30.
 * ``input_nonlinearity`` — viscous (speed-dependent) friction of the bearing
   pair and the nut by Palmgren, ``M_0 = 10⁻⁷ f_0 (ν n)^(2/3) d_m³``
   (grease base oil 100 mm²/s; bearings f_0 = 2 each, d_m 55 mm; nut f_0 = 4,
@@ -211,14 +211,14 @@ EXTRAS: tuple[ExtraPhysics, ...] = (
         "rotating shaft Nu = 0.133 Re_ω^(2/3) Pr^(1/3) (Kays & Bjorklund 1958); flat plate "
         "Nu = 0.664 Re^(1/2) Pr^(1/3) (Incropera eq 7.30); mixed with free convection, n = 3 "
         "(Incropera eq 9.64)",
-        "screw air exchange ×7.0 at 20 m/min, ×8.3 at 30 (vs still air); tube +3 %",
+        "screw air exchange ×6.3 at 20 m/min, ×8.1 at 30 (vs still air); tube +2 %, +4 %",
         "free convection and radiation only",
     ),
     ExtraPhysics(
         "copper_resistance",
         "the copper loss of the motor follows the winding resistance",
         "α_Cu = 3.93e-3 1/K, annealed copper at 20 °C (IEC 60028)",
-        "+3.9 % of the 30 W copper loss (at 20 m/min) per kelvin of winding rise",
+        "+0.39 % of the 30 W copper loss (at 20 m/min) per kelvin of winding rise",
         "copper loss at its 20 °C value",
     ),
     ExtraPhysics(
