@@ -35,14 +35,15 @@ exchange from the correlations of :mod:`thermogym.rigs._convection`.
 
 What the rig has that the identified model lacks
 ------------------------------------------------
-Every item can be switched off (``StrutPlant(physics={name: False})``, or
-the argument named) for tests; the concealed effects below are off unless a
-rig is built with them. Each entry: physical source; size; switch.
+Every item can be switched off (``StrutPlant(off=[name])`` or
+``get_rig("strut", off=[name])``) for tests; the concealed effects below are
+off unless a rig is built with them. Each entry: physical source; size;
+switch. The rows are :data:`EXTRAS`.
 
 ``conduction_1d``
     The heat equation along the screw and the push tube (000 section 4, eq 6)
-    by finite volumes; 60 + 60 segments (the model: 5 screw and 3 tube nodes);
-    ``n_screw=1, n_tube=1`` gives the lumped limit.
+    by finite volumes; 60 + 60 segments (the model: 5 screw and 3 tube nodes).
+    Switch ``conduction_1d`` (off: 5 and 3 segments); ``n_screw=``, ``n_tube=``.
 ``forced_convection``
     Rotating screw, ``Nu = 0.133 Re_ω^(2/3) Pr^(1/3)`` (Kays & Bjorklund);
     push tube moving along itself, laminar flat plate
