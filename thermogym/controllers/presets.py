@@ -2,7 +2,7 @@
 
 Each preset is a controller with settings derived from the identified linear
 models shipped in ``thermogym/controllers/data/`` (made by
-``data/make_models.py`` on the *identified model* environment) — never from
+``scripts/make_models.py`` on the *identified model* environment) — never from
 the plant it is evaluated on:
 
 =====================  ========================================================================
@@ -108,9 +108,7 @@ def model_fit(name: str) -> FitResult:
     """A shipped FitResult of ``controllers/data/`` (read once)."""
     p = data_path(name)
     if not p.exists():
-        raise ConfigError(
-            f"the controller model {p} is missing; run thermogym/controllers/data/make_models.py"
-        )
+        raise ConfigError(f"the controller model {p} is missing; run scripts/make_models.py")
     return load_fit(p)
 
 

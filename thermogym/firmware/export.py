@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 
 import thermogym
 from thermogym.errors import ConfigError
+from thermogym.estimation import VirtualSensor
 from thermogym.firmware import rtd as rtd_ref
 from thermogym.firmware.codegen import (
     FirmwareModel,
@@ -50,7 +51,6 @@ from thermogym.firmware.codegen import (
     firmware_model,
     render_header,
 )
-from thermogym.models.estimation import VirtualSensor
 
 __all__ = [
     "C_SOURCES",

@@ -34,9 +34,9 @@ from typing import Any
 import numpy as np
 
 from thermogym.errors import ConfigError, ThermogymError
+from thermogym.estimation import VirtualSensor
 from thermogym.firmware.export import ExportReport, export
 from thermogym.firmware.reference import random_stable_model, spindle_reference_model
-from thermogym.models.estimation import VirtualSensor
 
 __all__ = ["CASES", "case_sensor", "main", "rig_day", "run_case"]
 

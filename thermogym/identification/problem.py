@@ -33,10 +33,9 @@ Two objectives are offered:
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import math
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -53,6 +52,7 @@ from thermogym.errors import (
 )
 from thermogym.identification.metrics import fit_report
 from thermogym.identification.simmodel import SimBatch, SimModel, ThermogymModel
+from thermogym.models._blas import blas_threads
 from thermogym.models.base import Model
 from thermogym.recording import Recording
 
@@ -230,24 +230,6 @@ class _Counters:
 
     def as_dict(self) -> dict[str, int]:
         return dict(vars(self))
-
-
-_CONTROLLER: Any = None
-
-
-@contextlib.contextmanager
-def _blas_limit(n: int | None) -> Iterator[None]:
-    """Limit BLAS threads (threadpoolctl) while a batch simulates."""
-    global _CONTROLLER
-    if n is None:
-        yield
-        return
-    if _CONTROLLER is None:
-        from threadpoolctl import ThreadpoolController
-
-        _CONTROLLER = ThreadpoolController()
-    with _CONTROLLER.limit(limits=n, user_api="blas"):
-        yield
 
 
 def _as_pair(p: Any) -> SignalPair:
@@ -756,7 +738,7 @@ class Problem:
 
     def _call(self, theta: NDArray[np.float64], exp: Recording) -> SimBatch:
         B = theta.shape[0]
-        with _blas_limit(self.blas_threads):
+        with blas_threads(self.blas_threads):
             sb = self.model.simulate(theta, exp)
         self.counters.calls += 1
         self.counters.simulations += B

@@ -65,7 +65,7 @@ eps        0.9        1       APMonitor course: emissivity
 =========  =========  ======  ===========================================================
 
 The values identified from the shipped recordings are in
-``thermogym/envs/data/tclab_fit.json`` (see ``thermogym/envs/data/fit_tclab.py``).
+``thermogym/envs/data/tclab_fit.json`` (see ``scripts/fit_tclab.py``).
 
 Version History
 ---------------

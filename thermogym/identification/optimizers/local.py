@@ -33,7 +33,8 @@ from scipy.optimize import least_squares
 
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.identification.optimizers.base import Tracker
-from thermogym.identification.problem import Problem, _blas_limit
+from thermogym.identification.problem import Problem
+from thermogym.models._blas import blas_threads
 
 __all__ = ["LEAST_SQUARES_OPTIONS", "residual_jacobian", "run_least_squares"]
 
@@ -53,7 +54,7 @@ def _exact_jacobian(
     moved = np.flatnonzero(np.any(D != 0, axis=1))  # SimModel parameters z moves
     rs, Js = [], []
     for e, y, m in zip(problem.experiments, problem._y, problem._m, strict=True):
-        with _blas_limit(problem.blas_threads):
+        with blas_threads(problem.blas_threads):
             Y, dY = _call_sensitivities(fn, th, e, moved)
         problem.counters.sensitivity_runs += 1
         yh = Y[:, problem._out_cols]
