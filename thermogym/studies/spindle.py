@@ -140,6 +140,7 @@ def spindle_data(
     raw: bool = True,
     effects: Sequence[str] = (),
     duration_h: float = 24.0,
+    off: Sequence[str] = (),
 ) -> SpindleData:
     """Run the rig's ``run-in`` and ``validation`` protocols and prepare every day.
 
@@ -158,12 +159,15 @@ def spindle_data(
         Concealed physics for the rig (mismatch studies).
     duration_h : float
         Length of each day [h].
+    off : sequence of str
+        Rows of the rig's table of extra physics to switch off
+        (:data:`thermogym.rigs.spindle.EXTRAS`).
 
     Returns
     -------
     SpindleData
     """
-    rig = get_rig("spindle", effects)
+    rig = get_rig("spindle", effects, off=off)
     t0 = time.perf_counter()
     runs = rig.run(
         "run-in",
@@ -471,6 +475,7 @@ class SpindleFidelity:
 
 def _arx_va(train: Recording, test: Recording, inputs: Sequence[str], step: int = 60) -> float:
     """VA of a first-order ARX per output, ``y[k] = a y[k−1] + b·u[k−1] + c``, simulated."""
+
     def arrays(rec: Recording) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         u = np.column_stack([np.asarray(rec[c], dtype=float) for c in inputs])[::step]
         y = np.column_stack([np.asarray(rec[o], dtype=float) for o in OUTPUTS])[::step]

@@ -1,0 +1,137 @@
+"""Recordings from the identified models themselves, for tests whose truth must lie in the model.
+
+The virtual rigs are plants of their own, richer than the models
+(:mod:`thermogym.rigs`). Tests of the identification, diagnosis and estimation
+machinery need data whose answer is known in the model's own terms (true
+ratio parameters, one concealed effect in the model's vocabulary, the model's
+internal temperatures): these helpers simulate the model, with the rig's
+protocols and sensor noise, and are no rig.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from thermogym.models.registry import get_model
+from thermogym.recording import Recording, write_recording
+from thermogym.rigs.base import first_order_lag, parse_effect
+from thermogym.rigs.spindle import ambient_profile
+from thermogym.rigs.strut import STEP_TESTS, TEMPERATURES
+
+_STRUT_DEFAULTS = {
+    "input_dependent_heat_transfer": {"beta_u": 2.0},
+    "sensor_offset": {"signal": "T_nut", "offset": 1.0},
+    "sensor_lag": {"signal": "T_nut", "tau": 300.0},
+}
+
+
+def _noisy(x: np.ndarray, rng: np.random.Generator, sigma: float, res: float) -> np.ndarray:
+    y = x + sigma * rng.standard_normal(x.shape)
+    return np.round(y / res) * res
+
+
+def model_strut_steps(
+    seed: int = 0,
+    effects: Sequence[str] = (),
+    specimen: Mapping[str, float] | None = None,
+    feed_rates: Sequence[float] = (20.0, 25.0, 30.0),
+) -> list[Recording]:
+    """The strut model's step tests (paper 000 protocol), thermocouples σ 0.05 K, 0.01 K steps.
+
+    ``effects``: ``input_dependent_heat_transfer`` (in the model, β_u = 2 by
+    default), ``sensor_offset`` and ``sensor_lag`` (``NAME:k=v`` settings).
+    """
+    rng = np.random.default_rng(seed)
+    specs = {e.name: {**_STRUT_DEFAULTS[e.name], **e.params} for e in map(parse_effect, effects)}
+    internal = [n for n in specs if n == "input_dependent_heat_transfer"]
+    model = get_model("strut", effects=internal)
+    over: dict[str, float] = {"T_ref": 20.0, **dict(specimen or {})}
+    if internal:
+        over["beta_u"] = float(specs["input_dependent_heat_transfer"]["beta_u"])
+    theta = model.theta(over)
+    recs = []
+    for v in feed_rates:
+        duration, period = STEP_TESTS.get(float(v), (120.0, 150.0))
+        n = round(duration * 60.0 / period) + 1
+        t = period * np.arange(n)
+        air = 21.0 + 0.3 * np.sin(2 * np.pi * t / (6 * 3600.0) + rng.uniform(0, 2 * np.pi))
+        u = np.column_stack([np.full(n, float(v)), air])
+        u[0, 0] = 0.0
+        x0 = np.full((1, len(model.state_names)), air[0])
+        if float(v) == 25.0:  # the drive had not cooled down (000 section 4.1)
+            x0[0, model.state_names.index("drive")] += 3.0
+            x0[0, model.state_names.index("motor_flange")] += 1.8
+        y = model.simulate(u, period, theta, x0).outputs[0]
+        out = {k: y[:, i] for i, k in enumerate(model.output_names)}
+        s = specs.get("sensor_lag")
+        if s is not None:
+            out[s["signal"]] = first_order_lag(out[s["signal"]], float(s["tau"]), period)
+        s = specs.get("sensor_offset")
+        if s is not None:
+            out[s["signal"]] = out[s["signal"]] + float(s["offset"])
+        cols: dict[str, Any] = {"feed_rate": u[:, 0].copy(), "T_air": _noisy(air, rng, 0.05, 0.01)}
+        for k in TEMPERATURES:
+            cols[k] = _noisy(out[k], rng, 0.05, 0.01)
+        cols["dL_um"] = _noisy(out["dL_um"], rng, 0.5, 0.1)
+        units = {"feed_rate": "m/min", "T_air": "°C", "dL_um": "µm"} | dict.fromkeys(
+            TEMPERATURES, "°C"
+        )
+        roles = {"feed_rate": "input", "T_air": "disturbance"} | dict.fromkeys(
+            (*TEMPERATURES, "dL_um"), "output"
+        )
+        recs.append(
+            Recording(
+                t,
+                cols,
+                units=units,
+                roles=roles,
+                experiment_id=f"strut-step-{v:g}",
+                meta={"feed_rate_m_min": float(v), "period_s": period},
+            )
+        )
+    return recs
+
+
+def write_model_strut(folder: Path, **kw: Any) -> list[Path]:
+    """:func:`model_strut_steps` written as CSV files ``strut-step-<v>.csv``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    return [write_recording(r, folder / f"{r.experiment_id}.csv") for r in model_strut_steps(**kw)]
+
+
+def model_spindle_day(
+    speed: float, seed: int = 0, *, offset: Mapping[str, float] | None = None
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """A run-in day of the spindle model (1 Hz, RTDs σ 0.02 K): heat until settled, cool.
+
+    Returns the recorded columns and the noise-free truth (``speed``, ``T_amb``
+    and every output), as a rig's run would.
+    """
+    rng = np.random.default_rng(seed)
+    model = get_model("spindle")
+    n = 24 * 3600
+    t = np.arange(float(n))
+    amb = ambient_profile(t, rng)
+    u = np.column_stack([np.full(n, float(speed)), amb])
+    theta = model.theta()
+
+    def sim(u: np.ndarray) -> np.ndarray:
+        return model.simulate(u, 1.0, theta).outputs[0]
+
+    y = sim(u)
+    rise = y - amb[:, None]
+    w = 3 * 3600
+    settled = np.nonzero(np.abs(rise[w:] - rise[:-w]).max(axis=1) < 1.0)[0]
+    stop = int(min(settled[0] + w if settled.size else n, 20 * 3600))
+    u[stop:, 0] = 0.0
+    y = sim(u)
+    truth = {"speed": u[:, 0].copy(), "T_amb": amb} | {
+        k: y[:, i] for i, k in enumerate(model.output_names)
+    }
+    cols = {"speed": u[:, 0].copy(), "T_amb": _noisy(amb, rng, 0.02, 0.001)}
+    for k in model.output_names:
+        cols[k] = _noisy(truth[k] + (offset or {}).get(k, 0.0), rng, 0.02, 0.001)
+    return cols, truth
