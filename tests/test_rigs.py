@@ -27,9 +27,10 @@ def test_axt211_steps_cover_the_valid_ranges_and_fit_the_model(axt_steps):
     model = get_model("axt211")
     for run in axt_steps:
         assert set(model.exogenous_names) <= set(run.columns)
-        # measured minus noise-free values has the sensor's noise level
-        resid = run.columns["T_P"] - run.truth["T_P"]
-        assert 0.07 < resid.std() < 0.13
+        # measured minus noise-free values has the sensor's noise level where the signal is
+        # slow (the thermocouple's 3 s lag aside): 0.08 K white + 0.05 K coloured
+        resid = (run.columns["T_P"] - run.truth["T_P"])[-1200:]
+        assert 0.07 < 1.4826 * np.median(np.abs(resid - np.median(resid))) < 0.13
         assert np.all(run.columns["x_V"] >= -0.03) and np.all(run.columns["x_V"] <= 4.53)
 
 

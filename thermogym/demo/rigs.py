@@ -22,19 +22,20 @@ __all__ = ["CONCEALED", "axt211_specimen", "stage_rigs"]
 CONCEALED = "input_dependent_heat_transfer"
 
 
-def axt211_specimen(seed: int) -> tuple[int, dict[str, float]]:
-    """The AXT211 rig's specimen: parameters drawn from the manufacturing spread.
+def axt211_specimen(seed: int) -> tuple[int, Any]:
+    """The AXT211 rig's specimen: its physical parameters drawn from the manufacturing spread.
 
     Returns the specimen seed (``specimen_seed=`` of the AXT211 environments
-    with ``plant="rig"`` gives the same actuator) and the parameter overrides
-    (paper 002 section VIII spread, :func:`thermogym.rigs.axt211.specimen_spread`).
+    with ``plant="rig"`` gives the same actuator) and the specimen
+    (:class:`~thermogym.rigs.base.Specimens` of one; paper 002 section VIII
+    spread, :func:`thermogym.rigs.axt211.specimen_spread`).
     """
     import numpy as np
 
     from thermogym.rigs.axt211 import specimen_spread
 
     s = int(seed) + 7
-    return s, specimen_spread(np.random.default_rng(s), n=1)[0]
+    return s, specimen_spread(np.random.default_rng(s), n=1)
 
 
 def _run_axt211(ctx: DemoContext, proto: str, folder: Any, seed: int) -> list[Any]:
@@ -125,7 +126,10 @@ def stage_rigs(ctx: DemoContext, res: StageResult) -> None:
     res.text += (
         f"\n\nThe AXT211 rig is one actuator from the manufacturing spread of paper 002 "
         f"section VIII (specimen seed {spec_seed}: "
-        + ", ".join(f"`{k}` = {v:.4g}" for k, v in spec.items())
-        + "), not the package's nominal actuator: identification has to find it."
+        + ", ".join(
+            f"`{k}` = {spec[k][0]:.4g}" for k in ("T_m", "L_w", "R_min", "T_ref", "c_backlash")
+        )
+        + ", and the rest of its physical parameters), not the package's nominal actuator: "
+        "identification has to find it with a model that lacks part of the rig's physics."
     )
     res.highlights["recordings written"] = str(sum(len(v) for v in recs.values()))

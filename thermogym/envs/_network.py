@@ -40,7 +40,6 @@ from numpy.typing import NDArray
 from thermogym.envs._base import C_K, Engine
 from thermogym.envs._plant import ParamsLike, Plant, resolve_plant
 from thermogym.errors import ConfigError
-from thermogym.fitresult import FitResult
 from thermogym.models import thermal_network as _tn
 from thermogym.models.linear import StateSpaceModel
 from thermogym.models.thermal_network import ThermalNetworkModel
@@ -60,51 +59,25 @@ def network_plant(
     stepwise_effects: Sequence[str],
     specimen_seed: int | None = None,
 ) -> Plant:
-    """Resolve the plant of a machine-tool environment; ``plant="rig"`` is the rig's true plant.
+    """The plant of a machine-tool environment (:func:`~thermogym.envs._plant.resolve_plant`).
 
-    ``plant="model"`` is :func:`thermogym.envs._plant.resolve_plant`. With
-    ``plant="rig"`` the returned :class:`Plant` carries the rig, its true plant
-    (``true_plant``) and its specimen (``specimens``: the rig's own, or one drawn
-    with ``specimen_seed``); its ``model`` is the nominal model (names only).
-
-    Raises
-    ------
-    ConfigError
-        ``params`` with ``plant="rig"``, rig effects that do not act step by
-        step, or a randomisation of the rig.
+    With ``plant="rig"`` the returned :class:`Plant` carries the rig, its true
+    plant and its specimen: the rig's own strut or spindle, or one drawn from
+    its spread with ``specimen_seed``; its ``model`` is the nominal model
+    (names only).
     """
-    if plant != "rig":
-        return resolve_plant(
-            env, params=params, plant=plant, models=models, default=default, rig=rig,
-            rig_effects=rig_effects, stepwise_effects=stepwise_effects,
-        )  # fmt: skip
-    bad = [e for e in rig_effects if str(e).split(":")[0] not in stepwise_effects]
-    if bad:
-        raise ConfigError(
-            f"{env}: rig effect(s) {bad} are not available step-wise in environments; "
-            f"available: {list(stepwise_effects)}"
-        )
-    if params is not None:
-        raise ConfigError(
-            f"{env}: params is given with plant='rig'; the rig is the true plant and has its "
-            "own physics (use plant='model' to run a FitResult)"
-        )
-    from thermogym.rigs import get_rig
-
-    r = get_rig(rig, rig_effects)
-    if specimen_seed is not None:
+    specimen = None
+    if plant == "rig" and specimen_seed is not None:
         if isinstance(specimen_seed, bool) or not isinstance(specimen_seed, int | np.integer):
             raise ConfigError(f"{env}: specimen_seed is {specimen_seed!r}; expected an integer")
-        rng = np.random.default_rng(int(specimen_seed))
-        r = r.with_specimen(r.plant().draw_specimens(rng, 1))
-    model = default()
-    fit = FitResult.from_model(
-        model, method="nominal", notes=f"plant='rig': the virtual rig {rig!r} runs, not this model"
-    )
-    out = Plant(model, fit.theta(model), "rig", fit, tuple(r.effects), dict(r.sensors), r)
-    out.true_plant = r.plant()  # type: ignore[attr-defined]
-    out.specimens = r.specimen  # type: ignore[attr-defined]
-    return out
+        from thermogym.rigs import get_rig
+
+        r = get_rig(rig)
+        specimen = r.plant().draw_specimens(np.random.default_rng(int(specimen_seed)), 1)
+    return resolve_plant(
+        env, params=params, plant=plant, models=models, default=default, rig=rig,
+        rig_effects=rig_effects, stepwise_effects=stepwise_effects, specimen=specimen,
+    )  # fmt: skip
 
 
 @nb.njit(cache=True, inline="always")

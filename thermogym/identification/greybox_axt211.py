@@ -701,6 +701,8 @@ def identify_axt211(
             t = float(stats.t.ppf(0.5 + level / 2.0, max(ptc.n_points - 6, 1)))
             bounds = {n: (final[n] - t * se[i], final[n] + t * se[i]) for i, n in enumerate(names)}
         for i, n in enumerate(names):
+            if n not in truth:
+                continue  # no matching quantity in the true plant
             lo, hi = bounds[n]
             tv = float(truth[n])
             recovered[n] = {
@@ -808,3 +810,38 @@ def _xi_submodels(params: dict[str, float], rec: Recording) -> dict[str, float]:
         "thermal": float(accuracy_xi(rec["T_P"], sim.output("T_P")[0])),
         "mechanical": float(accuracy_xi(rec["x_V"], xv)),
     }
+
+
+#: Model parameters with a matching physical quantity of the AXT211 rig's true plant
+#: (:meth:`thermogym.rigs.axt211.AXT211Plant.derived`); the others (PTC polynomial, k_P
+#: shape) describe curves the rig produces by other physics.
+RIG_MATCH: dict[str, str] = {
+    "C_P": "C_sensible",
+    "lambda_PG": "G_to_housing",
+    "lambda_GU": "G_housing_air",
+    "T_P0": "T_stroke_start",
+    "tau_P": "tau_melt",
+    "c_backlash": "play",
+    "x_max": "stroke",
+}
+
+
+def rig_equivalents(rig: Any) -> dict[str, float]:
+    """The rig specimen's values of the model parameters that have a physical match.
+
+    Parameters
+    ----------
+    rig : AXT211Rig
+        The rig (its plant, effects and specimen).
+
+    Returns
+    -------
+    dict
+        Model parameter name -> the matching quantity of the rig's true plant
+        (:data:`RIG_MATCH`); the model's C_P excludes the latent heat the rig
+        has, its λ_GU is the rig's loss conductance at 20 K, and so on: where a
+        fitted value departs from these, the model parameter absorbs physics
+        it lacks.
+    """
+    d = rig.plant().derived(rig.specimen)
+    return {m: float(d[r][0]) for m, r in RIG_MATCH.items()}

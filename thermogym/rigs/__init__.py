@@ -2,7 +2,7 @@
 
 >>> from thermogym.rigs import get_rig, rig_names
 >>> rig_names()
-['axt211', 'spindle', 'strut']
+['axt211', 'room', 'spindle', 'strut']
 >>> sorted(get_rig("strut").protocols)
 ['steps']
 """
@@ -19,6 +19,7 @@ from thermogym.errors import ConfigError, UnknownNameError
 from thermogym.recording import Recording, write_recording
 from thermogym.rigs.axt211 import AXT211Rig
 from thermogym.rigs.base import EFFECT_NAMES, EffectSpec, Rig, RigRun, parse_effect
+from thermogym.rigs.room import RoomRig
 from thermogym.rigs.spindle import SpindleRig
 from thermogym.rigs.strut import StrutRig
 
@@ -34,7 +35,12 @@ __all__ = [
     "to_recording",
 ]
 
-_RIGS: dict[str, type[Rig]] = {"axt211": AXT211Rig, "spindle": SpindleRig, "strut": StrutRig}
+_RIGS: dict[str, type[Rig]] = {
+    "axt211": AXT211Rig,
+    "room": RoomRig,
+    "spindle": SpindleRig,
+    "strut": StrutRig,
+}
 
 
 def rig_names() -> list[str]:
@@ -42,7 +48,9 @@ def rig_names() -> list[str]:
     return list(_RIGS)
 
 
-def get_rig(name: str, effects: Sequence[str | EffectSpec] = (), *, off: Sequence[str] = ()) -> Rig:
+def get_rig(
+    name: str, effects: Sequence[str | EffectSpec] = (), *, off: Sequence[str] = (), **options: Any
+) -> Rig:
     """Build the rig called ``name``, optionally carrying concealed effects.
 
     Parameters
@@ -54,13 +62,15 @@ def get_rig(name: str, effects: Sequence[str | EffectSpec] = (), *, off: Sequenc
     off : sequence of str
         Rows of the rig's table of extra physics to switch off (rigs with a
         true plant of their own).
+    **options
+        Constructor options of the rig (the room rig's ``valve``).
     """
     try:
         cls = _RIGS[name]
     except KeyError:
         raise UnknownNameError(f"unknown rig {name!r}; rigs are {rig_names()}") from None
-    if off:
-        return cls(effects, off=off)
+    if off or options:
+        return cls(effects, off=off, **options)  # type: ignore[call-arg]
     return cls(effects)
 
 

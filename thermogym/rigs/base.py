@@ -280,11 +280,22 @@ class Specimens:
         return cls({k: np.concatenate([s[k] for s in items]) for k in names})
 
 
-def extras_table(extras: Sequence[ExtraPhysics]) -> str:
-    """The rows of a rig's table as plain text (one block per row)."""
+def extras_table(extras: Sequence[ExtraPhysics], width: int = 92) -> str:
+    """A rig's table as a numpydoc definition list (for module docstrings and reports).
+
+    Examples
+    --------
+    >>> print(extras_table([ExtraPhysics("lag", "a lag", "datasheet", "3 s", "none")]))
+    lag
+        a lag. Source: datasheet. Size: 3 s. Off: none.
+    """
+    import textwrap
+
     out = []
     for e in extras:
-        out.append(f"{e.name}: {e.what}\n  source: {e.source}\n  size: {e.size}\n  off: {e.off}")
+        text = f"{e.what}. Source: {e.source}. Size: {e.size}. Off: {e.off}."
+        out.append(e.name)
+        out.extend(textwrap.wrap(text, width, initial_indent="    ", subsequent_indent="    "))
     return "\n".join(out)
 
 

@@ -20,6 +20,7 @@ from thermogym.identification.greybox_axt211 import (
     THERMAL,
     GreyboxResult,
     identify_axt211,
+    rig_equivalents,
 )
 from thermogym.models.axt211 import AXT211_PARAMETERS
 from thermogym.rigs import get_rig, to_recording
@@ -124,9 +125,7 @@ def reproduce_paper002(
     ]
     pwm = [to_recording(r, "axt211") for r in rig.run("pwm", seed=cfg.seed + 2)]
     validation = [r for r in steps if r.experiment_id not in train_ids] + pwm
-    model, overrides = rig.plant()
-    truth_th = model.theta(overrides)[0]
-    truth = dict(zip(model.param_names, truth_th.tolist(), strict=True))
+    truth = rig_equivalents(rig)
     rng = np.random.default_rng(cfg.seed)
     start = _perturbed_start([*THERMAL, *MECHANICAL], rng, cfg.perturbation)
     # the mechanics need a test whose wax temperature crosses the whole stroke range
