@@ -10,12 +10,16 @@ protocols and sensor noise, and are no rig.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
+from thermogym.errors import ConfigError
+from thermogym.models.base import Model
 from thermogym.models.registry import get_model
 from thermogym.recording import Recording, write_recording
 from thermogym.rigs.base import first_order_lag, parse_effect
@@ -135,3 +139,85 @@ def model_spindle_day(
     for k in model.output_names:
         cols[k] = _noisy(truth[k] + (offset or {}).get(k, 0.0), rng, 0.02, 0.001)
     return cols, truth
+
+
+def with_hidden_node(
+    model: Model,
+    node: str,
+    *,
+    capacity: float,
+    conductance: float,
+    g_air: float = 0.0,
+) -> Model:
+    """A thermal-network plant with one extra capacitive node the model does not know.
+
+    (Formerly the ``missing_dynamics`` of the model-backed network rigs.) A heat capacity (a
+    machine-frame casting, a mounting bracket, a headstock) bolted to ``node``
+    through a contact conductance, optionally losing heat to the air. It adds
+    one slow state to the plant; every node balance stays eq (13) of
+    ``000_24627a5308ee07db.txt``::
+
+        C_h dT_h/dt = G_h (T_node − T_h) + g_h (T_air − T_h)
+        C_node dT_node/dt = ... + G_h (T_h − T_node)
+
+    Parameters
+    ----------
+    model : ThermalNetworkModel
+        The plant model (possibly with physical effects switched on).
+    node : str
+        Node the hidden mass is attached to.
+    capacity : float
+        Heat capacity of the hidden mass [J/K], > 0.
+    conductance : float
+        Contact conductance to ``node`` [W/K], > 0.
+    g_air : float
+        Conductance of the hidden mass to the air [W/K], >= 0.
+
+    Returns
+    -------
+    ThermalNetworkModel
+        Same signals, parameters and outputs; one more state, ``hidden_mass``.
+
+    Raises
+    ------
+    ConfigError
+        The model is not a thermal network, the node is unknown or a value is
+        not physical.
+    """
+    from thermogym.models.thermal_network import NetworkArrays, ThermalNetworkModel
+
+    if not isinstance(model, ThermalNetworkModel):
+        raise ConfigError(
+            f"effect 'missing_dynamics' adds a hidden thermal node; model {model.name!r} is "
+            "not a thermal network"
+        )
+    cls = type(model)
+    if node not in cls.nodes:
+        raise ConfigError(
+            f"effect 'missing_dynamics' names node {node!r}; the {model.name!r} nodes are "
+            f"{list(cls.nodes)}"
+        )
+    for what, v, lo in (("C", capacity, 0.0), ("G", conductance, 0.0)):
+        if not (math.isfinite(v) and v > lo):
+            raise ConfigError(f"effect 'missing_dynamics': {what} = {v!r}, expected > 0")
+    if not (math.isfinite(g_air) and g_air >= 0):
+        raise ConfigError(f"effect 'missing_dynamics': g_air = {g_air!r}, expected >= 0")
+    j = cls.nodes.index(node)
+
+    class _Hidden(cls):  # type: ignore[misc, valid-type]
+        nodes = (*cls.nodes, "hidden_mass")
+
+        def network(self, theta_full: NDArray[np.float64]) -> NetworkArrays:
+            net = super().network(theta_full)
+            B, n = net.C.shape
+            C = np.concatenate([net.C, np.full((B, 1), capacity)], axis=1)
+            G = np.zeros((B, n + 1, n + 1))
+            G[:, :n, :n] = net.G
+            G[:, j, n] = G[:, n, j] = conductance
+            g = np.concatenate([net.g_amb, np.full((B, 1), g_air)], axis=1)
+            q = np.concatenate([net.q, np.zeros((B, 1, net.q.shape[2]))], axis=1)
+            H = np.concatenate([net.H, np.zeros((net.H.shape[0], 1))], axis=1)
+            return NetworkArrays(C, G, g, q, H, net.h0)
+
+    _Hidden.__name__ = _Hidden.__qualname__ = cls.__name__
+    return _Hidden(effects=model.effects)

@@ -13,10 +13,9 @@
   strut and spindle rigs) the environment steps that plant, one specimen drawn from its
   manufacturing spread, and measures through the rig's sensors
   (:mod:`thermogym.envs._rig`); :attr:`Plant.model` is then only the nominal
-  model (shapes and names), not what runs. For a rig still built on a model
-  (:class:`thermogym.rigs._legacy.ModelRig`) the model runs with the rig's
-  effects and parameter overrides. Nothing of the rig's effects is visible to
-  the controller except through the measurements.
+  model (shapes and names), not what runs (the strut and spindle envs step
+  their rigs' plants in :mod:`thermogym.envs._network`). Nothing of the rig's
+  effects is visible to the controller except through the measurements.
 
 Environments read FitResults through :mod:`thermogym.fitresult` only; they
 never import :mod:`thermogym.identification` (DESIGN.md dependency rule).
