@@ -17,7 +17,7 @@ Examples
 >>> round(h_free_cylinder(10.0, 0.04), 2)  # a 40 mm screw 10 K above the air [W/(m² K)]
 4.45
 >>> round(h_rotating_shaft(1000.0, 0.04), 1)  # the same screw at 1000 rpm
-37.6
+37.5
 """
 
 from __future__ import annotations
