@@ -53,12 +53,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym.controllers.base import Controller, Decentralized, EnvInfo, Loop
+from thermogym.controllers.base import Controller, Decentralized, EnvInfo, Loop, env_info
 from thermogym.controllers.feedforward import LinearFeedforward, StaticMap
 from thermogym.controllers.mpc import MPC, SchedulePreview
 from thermogym.controllers.onoff import OnOff
 from thermogym.controllers.pid import PID, simc
 from thermogym.controllers.pwm import PWM, PWM_PERIODS
+from thermogym.controllers.rl import RLController
 from thermogym.controllers.schedule import OptimumStart
 from thermogym.errors import ConfigError, UnknownNameError
 from thermogym.fitresult import FitResult, load_fit
@@ -365,8 +366,6 @@ def build_controller(
     >>> type(ctrl).__name__, ctrl.period, type(ctrl.inner).__name__
     ('PWM', 10.0, 'PID')
     """
-    from thermogym.controllers.base import env_info
-
     if name not in CONTROLLER_NAMES:
         raise UnknownNameError(
             f"no controller preset {name!r}; presets are {list(CONTROLLER_NAMES)}"
@@ -377,8 +376,6 @@ def build_controller(
     if name == "random":
         return RandomController().bind(env)
     if name in ("ppo", "sac", "dqn"):
-        from thermogym.controllers.rl import RLController
-
         path = opts.get("policy")
         if path is None:
             path = _policy_path(name, info.name)

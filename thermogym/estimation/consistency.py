@@ -10,6 +10,7 @@ import numpy as np
 import scipy.stats
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import probability
 from thermogym.errors import ParameterError, ShapeError
 
 __all__ = ["ConsistencyReport", "consistency", "normalized_error_squared"]
@@ -145,8 +146,7 @@ def consistency(values: ArrayLike, dof: int, *, alpha: float = 0.05) -> Consiste
     v = v[~np.isnan(v)]  # inf (an impossible error) stays and fails the test
     if int(dof) != dof or dof < 1:
         raise ParameterError(f"dof is {dof!r}; expected a positive integer")
-    if not 0 < alpha < 1:
-        raise ParameterError(f"alpha is {alpha!r}; expected 0 < alpha < 1")
+    probability("alpha", alpha, text=False)
     N = v.size
     if N < 2:
         raise ShapeError(f"{N} finite values; the consistency test needs at least 2")

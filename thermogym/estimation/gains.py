@@ -15,6 +15,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import nonnegative, positive
 from thermogym.errors import ParameterError, ShapeError
 from thermogym.estimation._linalg import _check_psd, _mat, _spectral_radius
 from thermogym.models.base import ThetaLike
@@ -115,11 +116,8 @@ class NoiseModel:
 
     def scaled(self, process: float = 1.0, measurement: float = 1.0) -> NoiseModel:
         """Scale ``Q`` by ``process`` and ``R`` by ``measurement`` (S by their geometric mean)."""
-        if not (process >= 0 and measurement > 0):
-            raise ParameterError(
-                f"noise scales are {process!r} and {measurement!r}; expected process >= 0 and "
-                "measurement > 0"
-            )
+        process = nonnegative("process noise scale", process, text=False)
+        measurement = positive("measurement noise scale", measurement, text=False)
         return NoiseModel(
             self.Q * process, self.R * measurement, self.S * math.sqrt(process * measurement)
         )

@@ -6,11 +6,14 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import nonnegative, positive
 from thermogym.errors import ConfigError, ParameterError, ShapeError, UnknownNameError
 from thermogym.estimation._linalg import _names, _psd_sqrt_rows
 from thermogym.estimation.observer import Estimate, ObserverStatus
+from thermogym.models.axt211 import AXT211
 from thermogym.models.base import ThetaLike
 
 __all__ = ["AXT211WaxUKF"]
@@ -107,8 +110,6 @@ class AXT211WaxUKF:
         beta: float = 2.0,
         kappa: float = 0.0,
     ) -> None:
-        from thermogym.models.axt211 import AXT211
-
         self.model = AXT211() if model is None else model
         if not isinstance(self.model, AXT211):
             raise ConfigError(
@@ -118,9 +119,7 @@ class AXT211WaxUKF:
         if th.shape[0] != 1:
             raise ParameterError(f"theta holds {th.shape[0]} parameter sets; expected one")
         self.theta = th
-        if not (np.isfinite(dt) and dt > 0):
-            raise ParameterError(f"dt is {dt!r}; expected a positive sample period in seconds")
-        self.dt = float(dt)
+        self.dt = positive("dt", dt, unit="s", text=False)
         outs = list(self.model.output_names)
         self.measured_names = _names(measured, "measured")
         if not self.measured_names:
@@ -146,10 +145,8 @@ class AXT211WaxUKF:
                     f"parameter {name!r} is not an AXT211 parameter; parameters are "
                     f"{list(self.model.param_names)}"
                 )
-            if not (np.isfinite(std) and std > 0):
-                raise ParameterError(f"prior std of {name!r} is {std!r}; expected > 0")
-        if not (np.isfinite(drift) and drift >= 0):
-            raise ParameterError(f"drift is {drift!r}; expected >= 0")
+            positive(f"prior std of {name!r}", std, text=False)
+        nonnegative("drift", drift, text=False)
         self.parameter_names = tuple(pars)
         self._ip = np.array([self.model.param_index(n) for n in pars], dtype=np.int64)
         self._prior = np.array(list(pars.values()), dtype=float)
@@ -187,8 +184,6 @@ class AXT211WaxUKF:
         return y[idx]
 
     def _make(self, x0: NDArray[np.float64], P0: NDArray[np.float64]) -> Any:
-        from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
-
         outer = self
 
         class _BatchedUKF(UnscentedKalmanFilter):  # type: ignore[misc]

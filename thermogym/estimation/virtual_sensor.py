@@ -90,8 +90,10 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 import scipy.optimize
+from filterpy.kalman import KalmanFilter
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import nonnegative
 from thermogym.errors import ConfigError, ParameterError, ShapeError, UnknownNameError
 from thermogym.estimation._linalg import _names
 from thermogym.estimation.gains import NoiseModel, steady_state_gains
@@ -127,8 +129,7 @@ def _input_referred_q(
     confined to the controllable subspace — an unmeasured heat flow or ambient
     error acts exactly there.
     """
-    if not (np.isfinite(process_std) and process_std >= 0):
-        raise ParameterError(f"process_std is {process_std!r}; expected >= 0")
+    nonnegative("process_std", process_std, text=False)
     n, m = B.shape
     try:
         G = C @ np.linalg.solve(np.eye(n) - A, B) + D
@@ -629,8 +630,6 @@ class VirtualSensor:
         P0 : array_like, shape (n, n), optional
             Default: the steady-state prior covariance.
         """
-        from filterpy.kalman import KalmanFilter
-
         n, m, q = self.n_states, len(self.exogenous_names), len(self.measured_names)
         kf = KalmanFilter(dim_x=n, dim_z=max(q, 1), dim_u=m + q)
         R, S = self.noise.R, self.noise.S

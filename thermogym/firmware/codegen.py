@@ -34,6 +34,7 @@ import scipy.linalg
 import scipy.linalg.lapack
 from numpy.typing import NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import ConfigError, ParameterError
 from thermogym.estimation import ObserverMatrices
 
@@ -306,8 +307,7 @@ def firmware_model(
     if bad:
         raise ConfigError(f"scales given for unknown channel(s) {bad}; channels are {list(names)}")
     for k, v in scl.items():
-        if not (np.isfinite(v) and v > 0):
-            raise ConfigError(f"scale of {k!r} is {v!r}; expected a positive number")
+        positive(f"scale of {k!r}", v, error=ConfigError, text=False)
     unit = obs.units
     u_off = np.array([float(offs.get(s, _default_offset(unit.get(s, "1")))) for s in obs.exogenous])
     # operating point: the model's equilibrium at u_off (zero innovation there)

@@ -38,6 +38,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 from scipy import stats
+from scipy.ndimage import uniform_filter1d
 
 from thermogym.errors import ConfigError, RecordingError, ShapeError
 from thermogym.fitresult import FitResult, data_entry
@@ -321,8 +322,6 @@ def smooth_disturbances(
     -------
     Recording
     """
-    from scipy.ndimage import uniform_filter1d
-
     if window_s <= 0:
         return rec
     n = max(1, round(window_s / rec.dt))

@@ -1240,13 +1240,15 @@ def system_fitresult(
     )
     exo = prob.inputs + prob.disturbances
     st = dict(settings)
+    u_op = np.mean([op[0] for op in prob.ops], axis=0)
+    y_op = np.mean([op[1] for op in prob.ops], axis=0)
     st["operating_point"] = {
         "mode": st.get("operating_point_mode", "none"),
-        "inputs": {c: float(np.mean([op[0][k] for op in prob.ops])) for k, c in enumerate(exo)},
-        "outputs": {
-            c: float(np.mean([op[1][k] for op in prob.ops])) for k, c in enumerate(prob.outputs)
-        },
+        "inputs": {c: float(u_op[k]) for k, c in enumerate(exo)},
+        "outputs": {c: float(y_op[k]) for k, c in enumerate(prob.outputs)},
     }
+    # the model itself carries the operating point: every simulation path applies it
+    model = StateSpaceModel(**{**model.config(), "u_op": u_op.tolist(), "y_op": y_op.tolist()})
     arr = {
         "x0_train": [x.tolist() for x in system.x0],
         "eigenvalues_abs": np.abs(np.linalg.eigvals(system.A)).tolist(),

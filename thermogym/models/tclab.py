@@ -293,7 +293,7 @@ class TCLabModel(Model):
         T_amb : float
             Ambient temperature [°C].
         """
-        from scipy.optimize import fsolve
+        from scipy.optimize import fsolve  # scipy.optimize (~0.6 s) only for a steady state
 
         th = self.theta(theta)
         out = np.empty((th.shape[0], 2))

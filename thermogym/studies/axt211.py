@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from thermogym._checks import in_range
 from thermogym.errors import ConfigError
 from thermogym.identification.greybox_axt211 import (
     MECHANICAL,
@@ -108,8 +109,7 @@ def reproduce_paper002(
     GreyboxResult
     """
     cfg = config or GreyboxConfig()
-    if not 0 <= cfg.perturbation < 1:
-        raise ConfigError(f"perturbation is {cfg.perturbation!r}, expected in [0, 1)")
+    in_range("perturbation", cfg.perturbation, 0.0, 1.0, hi_open=True, error=ConfigError)
     rig = get_rig("axt211", cfg.effects)
     steps = [to_recording(r, "axt211") for r in rig.run("steps", seed=cfg.seed)]
     train_ids = {f"axt211-step-{v:g}V-{t:g}C" for v, t in cfg.train_steps}

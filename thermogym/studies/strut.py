@@ -191,7 +191,10 @@ def fit_foptd_set(rec: Recording, outputs: Sequence[str] = OUTPUTS, *, d_max: in
     FOPTDFit
     """
     t0 = time.perf_counter()
-    res = fit_foptd(rec, ["feed_rate"], list(outputs), max_delay=d_max)
+    # the paper's method: deviations from the initial values, the start at rest
+    res = fit_foptd(
+        rec, ["feed_rate"], list(outputs), max_delay=d_max, operating_point_mode="initial"
+    )
     return FOPTDFit(
         tuple(outputs),
         np.asarray(res.K, dtype=float)[:, 0],
