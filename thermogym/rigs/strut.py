@@ -23,7 +23,10 @@ the step tests the axis moves periodically over a 0.6 m stroke at constant
 feed rate ``v`` [m/min]; the screw turns at ``n = v / lead`` (1000 rpm at
 20 m/min). The period of a stroke (seconds) is far below every thermal time
 constant, so every moving contact (nut on the screw, screw inside the push
-tube, push tube in the guide bushing) is averaged over the stroke.
+tube, push tube in the guide bushing) is averaged over the stroke. The stand
+has no cover: between the bearing housing and the carriage (guided by the
+stand's rails) the screw turns in the open air; ahead of the nut it runs
+inside the push tube, where 30 % of its air exchange remains.
 
 Heat sources (linear in ``v`` like the paper's estimate ``Q_i = k_i v``, eq 13,
 except where the table says otherwise): motor 40 W at 20 m/min (75 % copper,
