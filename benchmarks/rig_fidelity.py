@@ -30,7 +30,7 @@ AXT211 (paper 002, ``002_dae2310635fe074e.txt``):
     identified by the paper's procedure: the fraction of (specimen, parameter) pairs
     whose 95 % interval covers the specimen's value, over the model parameters that
     have a matching physical quantity in the rig
-    (:data:`~thermogym.identification.greybox_axt211.RIG_MATCH`). Per parameter:
+    (:data:`~thermogym.studies.axt211.RIG_MATCH`). Per parameter:
     coverage, median relative bias and how consistent its sign is — a parameter that
     misses with one sign absorbs physics the model lacks.
 
@@ -56,15 +56,12 @@ from typing import Any
 
 import numpy as np
 
-from thermogym.identification.greybox_axt211 import (
-    RIG_MATCH,
-    identify_axt211,
-    rig_equivalents,
-)
+from thermogym.identification.greybox_axt211 import identify_axt211
 from thermogym.identification.metrics import accuracy_xi
 from thermogym.models.axt211 import AXT211
 from thermogym.recording import Recording
 from thermogym.rigs import get_rig, to_recording
+from thermogym.studies.axt211 import RIG_MATCH, rig_equivalents
 
 PAPER_XI = {"PTC": 0.93, "thermal": 0.95, "mechanical": 0.84}
 SIGNALS = {"PTC": "P_PTC", "thermal": "T_P", "mechanical": "x_V"}
@@ -158,7 +155,7 @@ def _xi_rows(recs: Sequence[Recording], sims: Sequence[dict[str, np.ndarray]]) -
 @figure("axt211_xi_heldout")
 def axt211_xi_heldout(ctx: Context) -> dict[str, Any]:
     """Table II on held-out rig tests, the paper's procedure (stages 1-3)."""
-    rig, data = _nominal_rig(ctx)
+    _, data = _nominal_rig(ctx)
     t0 = time.perf_counter()
     res = ctx.once("axt211/staged", lambda: _identify(ctx, data, joint=False, truth=None))
     ctx.details["axt211_staged_seconds"] = time.perf_counter() - t0

@@ -11,9 +11,7 @@ from thermogym.identification.coordinator import run_identification
 from thermogym.identification.greybox_axt211 import (
     THERMAL,
     AXT211Mechanics,
-    GreyboxConfig,
     fit_ptc_polynomial,
-    reproduce_paper002,
     smooth_disturbances,
 )
 from thermogym.identification.problem import FreeParameter, Problem
@@ -21,6 +19,7 @@ from thermogym.identification.uncertainty import estimate_input_noise
 from thermogym.models.axt211 import AXT211, ptc_resistance
 from thermogym.recording import Recording
 from thermogym.rigs import get_rig, to_recording
+from thermogym.studies.axt211 import GreyboxConfig, reproduce_paper002
 
 
 def test_ptc_polynomial_is_recovered_exactly_from_noise_free_data():
@@ -118,7 +117,7 @@ def test_thermal_parameters_recovered_from_noisy_model_data_within_their_interva
 def test_thermal_fit_on_the_rig_absorbs_the_latent_heat_in_its_capacity():
     # the rig's cartridge has a sensible capacity (PTC + cartridge) and the latent heat of
     # its charge, which the model's constant C_P (paper 002 eq 17) can only average in
-    from thermogym.identification.greybox_axt211 import rig_equivalents
+    from thermogym.studies.axt211 import rig_equivalents
 
     rig = get_rig("axt211")
     raw = [
@@ -132,7 +131,9 @@ def test_thermal_fit_on_the_rig_absorbs_the_latent_heat_in_its_capacity():
         AXT211(),
         recs,
         pairs=["T_P", "T_G"],
-        free=[FreeParameter(n, start=s) for n, s in zip(THERMAL, [25, 0.05, 60, 0.08], strict=True)],
+        free=[
+            FreeParameter(n, start=s) for n, s in zip(THERMAL, [25, 0.05, 60, 0.08], strict=True)
+        ],
         objective="mse",
     )
     res = run_identification(pb, "greybox", progress=False)

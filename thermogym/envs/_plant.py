@@ -32,11 +32,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import nonnegative
 from thermogym.errors import ConfigError, ParameterError
 from thermogym.fitresult import FitResult, load_fit
 from thermogym.models.base import Model
 
-__all__ = ["ParamsLike", "Plant", "make_sampler", "resolve_plant"]
+__all__ = ["ParamsLike", "Plant", "make_sampler", "resolve_plant", "rig_only"]
 
 ParamsLike = FitResult | str | os.PathLike[str] | Mapping[str, Any] | None
 PLANTS = ("model", "rig")
@@ -204,7 +205,7 @@ def resolve_plant(
             f"{env}: there is no virtual rig for this plant (its real plant is physical "
             "hardware); use plant='model'"
         )
-    from thermogym.rigs import get_rig
+    from thermogym.rigs import get_rig  # the rigs (~0.4 s) load only for plant='rig'
 
     r = get_rig(rig, rig_effects, **dict(rig_options or {}))
     if specimen is not None and (not isinstance(specimen, Mapping) or specimen):
@@ -272,8 +273,7 @@ def make_sampler(
     """
     if method not in SAMPLING:
         raise ConfigError(f"randomisation method is {method!r}; expected one of {SAMPLING}")
-    if not (np.isfinite(scale) and scale >= 0):
-        raise ParameterError(f"randomisation scale is {scale!r}; expected a number >= 0")
+    nonnegative("randomisation scale", scale, text=False)
     fit._check_model(model, check_version=False)
     if names is not None:
         unknown = [n for n in names if n not in model.param_names]
@@ -328,3 +328,11 @@ def make_sampler(
         raise ParameterError(f"no valid parameter set in 20 draws; last: {last}") from last
 
     return sampler
+
+
+def rig_only(env: str, what: str) -> ConfigError:
+    """The error for a model-only operation on the rig (parameters, randomisation)."""
+    return ConfigError(
+        f"{env}: {what} is not available with plant='rig': the rig's true plant is not a model "
+        "with parameters (use plant='model'; the rig's specimen is set by specimen_seed)"
+    )

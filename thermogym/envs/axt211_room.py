@@ -136,8 +136,7 @@ from thermogym.envs._kernels import (
     tp_buffer_full,
     tp_push,
 )
-from thermogym.envs._plant import ParamsLike, resolve_plant
-from thermogym.envs._rig import RigSensors, rig_only
+from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
 from thermogym.envs.profiles import synthetic_weather
 from thermogym.errors import ConfigError
@@ -1094,6 +1093,8 @@ class _RoomRigEngine(_RoomEngine):
     """
 
     def __init__(self, B: int, cfg: RoomConfig) -> None:
+        from thermogym.envs._rig import RigSensors  # the rigs load only for plant='rig'
+
         super().__init__(B, cfg)
         pl = self.plant
         self.tp = pl.true_plant
