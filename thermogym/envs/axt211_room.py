@@ -166,11 +166,13 @@ class RoomConfig:
     params: ParamsLike = None
     """FitResult of model ``room``; default nominal values."""
     plant: str = "model"
-    """``"model"`` or ``"rig"`` (the room around the AXT211 rig's true actuator)."""
+    """``"model"`` or ``"rig"``: the room rig's true plant (:mod:`thermogym.rigs.room`:
+    heating branch, radiator, four-node zone, the AXT211 rig as actuator), observed
+    through its sensors."""
     rig_effects: Sequence[str] = ()
-    """Actuator effects of the AXT211 rig (``plant="rig"``)."""
+    """Concealed actuator effects of the room rig (``plant="rig"``)."""
     specimen_seed: int | None = 0
-    """Rig only: seed of the actuator specimen (None: nominal actuator)."""
+    """Rig only: seed of the actuator specimen from the AXT211 spread (None: nominal)."""
     valve: str = "linear"
     """Valve characteristic of the room model (``"linear"``, ``"equal_percentage"``)."""
     action_mode: str = "duty"

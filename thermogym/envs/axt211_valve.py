@@ -153,7 +153,8 @@ class ValveConfig:
     params: ParamsLike = None
     """FitResult (object, JSON path or dict) of model ``axt211``; default nominal values."""
     plant: str = "model"
-    """``"model"``: the identified model; ``"rig"``: the virtual rig's true plant."""
+    """``"model"``: the identified model; ``"rig"``: the AXT211 rig's true plant
+    (:mod:`thermogym.rigs.axt211`), observed through its sensors."""
     rig_effects: Sequence[str] = ()
     """Rig effects (``plant="rig"``), e.g. ``["phase_change", "backlash:c_backlash=0.3"]``."""
     specimen_seed: int | None = 0

@@ -518,8 +518,9 @@ class AXT211Plant(TruePlant):
 
         ``C_sensible`` [J/K]: heat capacity of PTC and cartridge without the
         latent heat; ``G_to_housing`` [W/K]: conductance from PTC and cartridge
-        to the housing; ``G_housing_air`` [W/K]: the housing's loss conductance
-        to the air (convection and radiation) at 20 K excess over 25 °C;
+        to the housing; ``C_housing`` [J/K]: heat capacity of the housing;
+        ``G_housing_air`` [W/K]: the housing's loss conductance to the air
+        (convection and radiation) at 20 K excess over 25 °C;
         ``T_stroke_start`` [°C]: cartridge temperature at which, heated slowly,
         the piston reaches the middle of the coupling's play (the stem's
         contact point), friction aside; ``tau_melt`` [s]; ``play`` [mm]
@@ -532,6 +533,7 @@ class AXT211Plant(TruePlant):
         out = {
             "C_sensible": p[:, _ph.P_CH] + p[:, _ph.P_CW],
             "G_to_housing": p[:, _ph.P_GWG] + (p[:, _ph.P_GHG] if node else 0.0),
+            "C_housing": p[:, _ph.P_CG].copy(),
             "G_housing_air": np.array(
                 [_ph.housing_loss(45.0, 25.0, p[b], sw) / 20.0 for b in range(B)]
             ),

@@ -39,6 +39,7 @@ _SPEC = {p.name: p for p in AXT211_PARAMETERS}
 RIG_MATCH: dict[str, str] = {
     "C_P": "C_sensible",
     "lambda_PG": "G_to_housing",
+    "C_G": "C_housing",
     "lambda_GU": "G_housing_air",
     "T_P0": "T_stroke_start",
     "tau_P": "tau_melt",
