@@ -54,6 +54,7 @@ def test_rig_vector_env_equals_single_envs(env_id):
                         assert vinfo["kpis"][k][i] == pytest.approx(v, rel=1e-12, abs=1e-12)
             np.testing.assert_array_equal(vo[i], o)
             assert vr[i] == pytest.approx(r, rel=1e-12, abs=1e-12)
+            assert (bool(vte[i]), bool(vtr[i])) == (te, tr)
             done[i] = te or tr
 
 
