@@ -63,12 +63,12 @@ NEVER_IMPORTS = {"models": ("matplotlib",), "estimation": ("matplotlib",)}
 #: Rule violations known today, each with the issue that removes it; the stale-exception
 #: test fails once one no longer occurs, so that it is deleted here.
 KNOWN_VIOLATIONS: dict[tuple[str, str], str] = {
-    # rigs import plant-model classes: issue 14 removes it
-    ("thermogym.rigs.base", "thermogym.models.base.Model"): "issue 14",
-    ("thermogym.rigs.base", "thermogym.models.registry.get_model"): "issue 14",
-    ("thermogym.rigs.base", "thermogym.models.thermal_network.NetworkArrays"): "issue 14",
-    ("thermogym.rigs.base", "thermogym.models.thermal_network.ThermalNetworkModel"): "issue 14",
-    ("thermogym.rigs.axt211", "thermogym.models.axt211.AXT211"): "issue 14",
+    # the strut and spindle rigs still stand on a model through the transitional ModelRig:
+    # issue 14 removes it with their true plants (the AXT211 and room rigs have theirs)
+    ("thermogym.rigs._legacy", "thermogym.models.base.Model"): "issue 14",
+    ("thermogym.rigs._legacy", "thermogym.models.registry.get_model"): "issue 14",
+    ("thermogym.rigs._legacy", "thermogym.models.thermal_network.NetworkArrays"): "issue 14",
+    ("thermogym.rigs._legacy", "thermogym.models.thermal_network.ThermalNetworkModel"): "issue 14",
 }
 #: Import cycles known today (the modules of each strongly connected component).
 KNOWN_CYCLES: dict[frozenset[str], str] = {

@@ -236,11 +236,11 @@ def _axt211(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> N
         MECHANICAL,
         THERMAL,
         identify_axt211,
-        rig_equivalents,
     )
     from thermogym.models.registry import get_model
     from thermogym.plotting import plot_recordings
     from thermogym.rigs import get_rig
+    from thermogym.studies.axt211 import rig_equivalents
 
     steps = recs["axt211/steps"]
     train_ids = {"axt211-step-24V-25C", "axt211-step-19V-0C", "axt211-step-29V-50C"}

@@ -36,7 +36,7 @@ from thermogym.errors import ConfigError, ParameterError
 from thermogym.fitresult import FitResult, load_fit
 from thermogym.models.base import Model
 
-__all__ = ["ParamsLike", "Plant", "make_sampler", "resolve_plant"]
+__all__ = ["ParamsLike", "Plant", "make_sampler", "resolve_plant", "rig_only"]
 
 ParamsLike = FitResult | str | os.PathLike[str] | Mapping[str, Any] | None
 PLANTS = ("model", "rig")
@@ -212,10 +212,15 @@ def resolve_plant(
     if getattr(r, "plant_cls", None) is not None:
         # a true plant of the rig's own: the environment steps it; the model stays nominal
         model = default() if callable(default) else load_params(default, models, env).build_model()  # type: ignore[union-attr]
+        spec = r.specimen
+        # the model's nominal parameters (shapes and names only) and, in its arrays, the rig
+        # specimen's physical parameters: the fingerprint tells one rig specimen from another
         fit = FitResult.from_model(
             model,
             method="nominal",
             notes=f"plant='rig': the virtual rig {rig!r} runs, not this model",
+            arrays={"rig_specimen": [float(spec[n][0]) for n in spec.names]},
+            settings={"rig": rig, "rig_specimen_names": list(spec.names)},
         )
         return Plant(
             model, fit.theta(model), "rig", fit, tuple(r.effects), dict(r.sensors), r,
@@ -327,3 +332,11 @@ def make_sampler(
         raise ParameterError(f"no valid parameter set in 20 draws; last: {last}") from last
 
     return sampler
+
+
+def rig_only(env: str, what: str) -> ConfigError:
+    """The error for a model-only operation on the rig (parameters, randomisation)."""
+    return ConfigError(
+        f"{env}: {what} is not available with plant='rig': the rig's true plant is not a model "
+        "with parameters (use plant='model'; the rig's specimen is set by specimen_seed)"
+    )

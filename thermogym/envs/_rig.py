@@ -28,7 +28,7 @@ from thermogym.envs._base import check_number
 from thermogym.errors import ConfigError
 from thermogym.rigs.sensors import N_RANDOM, Sensor, SensorStream
 
-__all__ = ["RigSensors", "rig_only"]
+__all__ = ["RigSensors"]
 
 
 class RigSensors:
@@ -127,11 +127,3 @@ class RigSensors:
         for j, st in enumerate(self.streams):
             out[:, j] = st.sample(active, truth[:, j], dt, z[:, j])
         return out
-
-
-def rig_only(env: str, what: str) -> ConfigError:
-    """The error for a model-only operation on the rig (parameters, randomisation)."""
-    return ConfigError(
-        f"{env}: {what} is not available with plant='rig': the rig's true plant is not a model "
-        "with parameters (use plant='model'; the rig's specimen is set by specimen_seed)"
-    )

@@ -136,8 +136,7 @@ from thermogym.envs._kernels import (
     tp_buffer_full,
     tp_push,
 )
-from thermogym.envs._plant import ParamsLike, resolve_plant
-from thermogym.envs._rig import RigSensors, rig_only
+from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
 from thermogym.envs.profiles import synthetic_weather
 from thermogym.errors import ConfigError
@@ -167,11 +166,13 @@ class RoomConfig:
     params: ParamsLike = None
     """FitResult of model ``room``; default nominal values."""
     plant: str = "model"
-    """``"model"`` or ``"rig"`` (the room around the AXT211 rig's true actuator)."""
+    """``"model"`` or ``"rig"``: the room rig's true plant (:mod:`thermogym.rigs.room`:
+    heating branch, radiator, four-node zone, the AXT211 rig as actuator), observed
+    through its sensors."""
     rig_effects: Sequence[str] = ()
-    """Actuator effects of the AXT211 rig (``plant="rig"``)."""
+    """Concealed actuator effects of the room rig (``plant="rig"``)."""
     specimen_seed: int | None = 0
-    """Rig only: seed of the actuator specimen (None: nominal actuator)."""
+    """Rig only: seed of the actuator specimen from the AXT211 spread (None: nominal)."""
     valve: str = "linear"
     """Valve characteristic of the room model (``"linear"``, ``"equal_percentage"``)."""
     action_mode: str = "duty"
@@ -1094,6 +1095,8 @@ class _RoomRigEngine(_RoomEngine):
     """
 
     def __init__(self, B: int, cfg: RoomConfig) -> None:
+        from thermogym.envs._rig import RigSensors  # the rigs load only for plant='rig'
+
         super().__init__(B, cfg)
         pl = self.plant
         self.tp = pl.true_plant

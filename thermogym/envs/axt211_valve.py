@@ -120,8 +120,7 @@ from thermogym.envs._kernels import (
     tp_buffer_full,
     tp_push,
 )
-from thermogym.envs._plant import ParamsLike, resolve_plant
-from thermogym.envs._rig import RigSensors, rig_only
+from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
 from thermogym.errors import ConfigError
 from thermogym.models import axt211 as _ax
@@ -154,7 +153,8 @@ class ValveConfig:
     params: ParamsLike = None
     """FitResult (object, JSON path or dict) of model ``axt211``; default nominal values."""
     plant: str = "model"
-    """``"model"``: the identified model; ``"rig"``: the virtual rig's true plant."""
+    """``"model"``: the identified model; ``"rig"``: the AXT211 rig's true plant
+    (:mod:`thermogym.rigs.axt211`), observed through its sensors."""
     rig_effects: Sequence[str] = ()
     """Rig effects (``plant="rig"``), e.g. ``["phase_change", "backlash:c_backlash=0.3"]``."""
     specimen_seed: int | None = 0
@@ -732,6 +732,8 @@ class _ValveRigEngine(_ValveEngine):
     """
 
     def __init__(self, B: int, cfg: ValveConfig) -> None:
+        from thermogym.envs._rig import RigSensors  # the rigs load only for plant='rig'
+
         super().__init__(B, cfg)
         pl = self.plant
         self.tp = pl.true_plant

@@ -229,14 +229,14 @@ AXT211_EXTRAS: tuple[ExtraPhysics, ...] = (
                  "R doubles at T_ref 97 °C, x1000 over ~30 K", "a fixed resistor R_min"),
     ExtraPhysics("ptc_node", "the PTC is a heat capacity of its own, hotter than the cartridge",
                  "contact conductance of a pressed ceramic pill (model: one node, eq 17)",
-                 "C_h 4 J/K, G_hw 0.4 W/K: 15 K above the cartridge at 6 W",
+                 "C_h 3 J/K, G_hw 0.4 W/K: 15 K above the cartridge at 6 W",
                  "PTC and cartridge one lumped node"),
     ExtraPhysics("latent_heat", "heat of fusion of the paraffin charge",
                  "paraffin 150-250 J/g (handbook); paper 002 VI-B (model: constant C_P)",
-                 "420 J, ~2.5x the sensible capacity across the melting range", "L = 0"),
+                 "220 J (1.16 g): +18 J/K at the melt centre on a sensible 13 J/K", "L = 0"),
     ExtraPhysics("melt_hysteresis", "the charge solidifies below its melting range",
                  "DSC of paraffins: crystallisation 1-3 K below melting (model: eq 20 only)",
-                 "1.5 K: ~0.8 mm of stroke at the gain peak", "one curve for both ways"),
+                 "1.5 K: ~0.7 mm more stroke on cooling at 66 °C", "one curve for both ways"),
     ExtraPhysics("melt_kinetics", "the melt front lags the cartridge temperature",
                  "conduction into the charge (model: tau_P, eq 19)", "tau_m 12 s",
                  "the melted fraction on its curve at once"),
@@ -245,19 +245,21 @@ AXT211_EXTRAS: tuple[ExtraPhysics, ...] = (
                  "h 6.0 W/(m2 K) at 20 K, 3.4 at 2 K", "linear at dT = 20 K"),
     ExtraPhysics("radiation", "the housing radiates as a grey body",
                  "Stefan-Boltzmann, emissivity 0.9 of polymers (model: in lambda_GU)",
-                 "6 W/(m2 K) at 25 °C, +25 % at 50 °C", "linear at T_U + 10 K"),
+                 "5.4 W/(m2 K) at 25 °C, +27 % at 50 °C", "linear, fixed at 35 °C"),
     ExtraPhysics("valve_neck", "the cartridge conducts into the valve's neck, a slow store",
                  "brass adaptor and bonnet, ~180 g (model: no such node)",
-                 "C_v 70 J/K, G_wv 0.03 W/K, G_va 0.08 W/K", "G_wv = 0"),
+                 "C_v 70 J/K, G_wv 0.03, G_va 0.08 W/K: 1.0 of 4.7 W held fully open",
+                 "G_wv = 0"),
     ExtraPhysics("spring_preload", "the stroke starts once the thrust exceeds the preload",
                  "return spring and rubber plug stiffness (model: T_P0, eq 19)",
-                 "90 N / 150 N/mm: 0.6 mm of free stroke, ~2 K", "F_0 = 0"),
+                 "90 N / 150 N/mm: 0.6 mm of free stroke; the stem waits for the melt (59 °C, "
+                 "30 °C without)", "F_0 = 0"),
     ExtraPhysics("friction", "static and dynamic friction of stem gland and piston seal",
                  "O-ring seal friction (model: none)", "12 N / 8 N: +-0.08 mm stuck band",
                  "no friction"),
     ExtraPhysics("source_resistance", "the supply sags under the heater current",
                  "24 V safety transformer regulation + cable (model: k_U at the PTC, eq 15)",
-                 "1 Ohm: -2.6 % power cold", "0 Ohm"),
+                 "1 Ohm: -2.0 % power cold", "0 Ohm"),
 )  # fmt: skip
 
 __doc__ = (__doc__ or "").replace("{extras}", extras_table(AXT211_EXTRAS))
@@ -516,8 +518,9 @@ class AXT211Plant(TruePlant):
 
         ``C_sensible`` [J/K]: heat capacity of PTC and cartridge without the
         latent heat; ``G_to_housing`` [W/K]: conductance from PTC and cartridge
-        to the housing; ``G_housing_air`` [W/K]: the housing's loss conductance
-        to the air (convection and radiation) at 20 K excess over 25 °C;
+        to the housing; ``C_housing`` [J/K]: heat capacity of the housing;
+        ``G_housing_air`` [W/K]: the housing's loss conductance to the air
+        (convection and radiation) at 20 K excess over 25 °C;
         ``T_stroke_start`` [°C]: cartridge temperature at which, heated slowly,
         the piston reaches the middle of the coupling's play (the stem's
         contact point), friction aside; ``tau_melt`` [s]; ``play`` [mm]
@@ -530,6 +533,7 @@ class AXT211Plant(TruePlant):
         out = {
             "C_sensible": p[:, _ph.P_CH] + p[:, _ph.P_CW],
             "G_to_housing": p[:, _ph.P_GWG] + (p[:, _ph.P_GHG] if node else 0.0),
+            "C_housing": p[:, _ph.P_CG].copy(),
             "G_housing_air": np.array(
                 [_ph.housing_loss(45.0, 25.0, p[b], sw) / 20.0 for b in range(B)]
             ),
