@@ -221,3 +221,25 @@ def with_hidden_node(
 
     _Hidden.__name__ = _Hidden.__qualname__ = cls.__name__
     return _Hidden(effects=model.effects)
+
+
+def model_axt211_step(
+    voltage: float = 24.0,
+    ambient: float = 25.0,
+    *,
+    on_s: int = 900,
+    off_s: int = 900,
+    seed: int = 0,
+) -> Recording:
+    """A power step of the AXT211 model itself at 1 s (on, then off); thermocouples σ 0.1 K."""
+    rng = np.random.default_rng(seed)
+    model = get_model("axt211")
+    n = on_s + off_s
+    u = np.column_stack(
+        [np.r_[np.ones(on_s), np.zeros(off_s)], np.full(n, voltage), np.full(n, ambient)]
+    )
+    y = model.simulate(u, 1.0, model.theta()).outputs[0]
+    cols: dict[str, Any] = {"u": u[:, 0], "k_U": u[:, 1], "T_U": u[:, 2]}
+    for i, k in enumerate(model.output_names):
+        cols[k] = y[:, i] + (0.1 * rng.standard_normal(n) if k.startswith("T_") else 0.0)
+    return Recording(np.arange(float(n)), cols, experiment_id=f"axt211-step-{voltage:g}V")
