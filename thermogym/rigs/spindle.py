@@ -498,17 +498,17 @@ class SpindlePlant(TruePlant):
         g_sp = _spacer_conductance_per_m() * (_SPACER[1] - _SPACER[0])
         w_s = segment_weights(xs, *_SPACER)
         w_i = segment_weights(xi, *_SPACER)
-        for i in np.flatnonzero(w_s > 0):
-            L.spread(S0 + int(i), I0, w_i, g_sp * w_s[i])
+        for m in np.flatnonzero(w_s > 0).tolist():
+            L.spread(S0 + m, I0, w_i, g_sp * w_s[m])
         for a, b, g in _FITS:
             w_a, w_b = segment_weights(xi, a, b), segment_weights(xo, a, b)
-            for i in np.flatnonzero(w_a > 0):
-                L.spread(I0 + int(i), O0, w_b, g * w_a[i])
+            for m in np.flatnonzero(w_a > 0).tolist():
+                L.spread(I0 + m, O0, w_b, g * w_a[m])
         mid = (_FITS[0][1], _FITS[1][0])
         g_gap = _K_AIR * math.pi * _SLEEVE[2] * (mid[1] - mid[0]) / _GAP_IO
         w_a, w_b = segment_weights(xi, *mid), segment_weights(xo, *mid)
-        for i in np.flatnonzero(w_a > 0):
-            L.spread(I0 + int(i), O0, w_b, g_gap * w_a[i])
+        for m in np.flatnonzero(w_a > 0).tolist():
+            L.spread(I0 + m, O0, w_b, g_gap * w_a[m])
         L.spread(O0 + Nh - 1, S0, segment_weights(xs, *_NOSE), _G_LABYRINTH)  # labyrinth seal
         if md is not None:
             w = segment_weights(xo, _OUTER[1] - 0.12, _OUTER[1])
@@ -730,7 +730,8 @@ class SpindlePlant(TruePlant):
         y = np.empty((B, T, 7))
         xs = np.empty((B, T, self.n_states))
         self._kernel(x, u, dt, specimens, y, xs, True)
-        return PlantRun(t0 + dt * np.arange(T), u, y, xs, self.hidden(xs, specimens), TEMPERATURES)
+        t = t0 + dt * np.arange(T, dtype=np.float64)
+        return PlantRun(t, u, y, xs, self.hidden(xs, specimens), TEMPERATURES)
 
     def _kernel(
         self,
@@ -1029,7 +1030,7 @@ class SpindleRig(Rig):
         """Run-in days at constant speeds [rpm], simulated as one batch: heat, settle, cool."""
         dt = 1.0
         n = int(duration_h * 3600 / dt)
-        t = dt * np.arange(n)
+        t = dt * np.arange(n, dtype=np.float64)
         amb = np.array([ambient_profile(t, rng) for _ in speeds])
         # the plant runs on a 10 s grid (its fastest probe lags 20 s or more; the speed
         # steps fall on the grid) and is interpolated onto the 1 s grid of the recordings

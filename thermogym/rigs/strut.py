@@ -566,8 +566,8 @@ class StrutPlant(TruePlant):
             ins = np.clip((xs_e[1:] - np.maximum(xs_e[:-1], xn + _L_NUT / 2)) / dxs, 0.0, 1.0)
             inside += ins
             j = np.clip(((xs_c - rear) / dxt).astype(int), 0, Nt - 1)
-            for i in np.flatnonzero(ins > 0):
-                g_st[i, j[i]] += _G_SCREW_TUBE * dxs * ins[i]
+            for m in np.flatnonzero(ins > 0).tolist():
+                g_st[m, j[m]] += _G_SCREW_TUBE * dxs * ins[m]
             w_bush += segment_weights(ts_e, _BUSHING_X - rear - 0.02, _BUSHING_X - rear + 0.02)
         w_nut /= len(pos)
         inside /= len(pos)
@@ -851,7 +851,7 @@ class StrutPlant(TruePlant):
         xs = np.empty((B, T, self.n_states))
         self._kernel(x, u, dt, specimens, y, xs, True)
         hid = self.hidden(xs, specimens)
-        return PlantRun(t0 + dt * np.arange(T), u, y, xs, hid, OUTPUTS)
+        return PlantRun(t0 + dt * np.arange(T, dtype=np.float64), u, y, xs, hid, OUTPUTS)
 
     def _kernel(
         self,
@@ -1111,7 +1111,7 @@ class StrutRig(Rig):
     ) -> RigRun:
         """One step test from a thermal steady state at ``feed_rate`` [m/min]."""
         n = round(duration_min * 60.0 / period_s) + 1
-        t = period_s * np.arange(n)
+        t = period_s * np.arange(n, dtype=np.float64)
         air = T_air + 0.3 * np.sin(2 * np.pi * t / (6 * 3600.0) + rng.uniform(0, 2 * np.pi))
         u = np.column_stack([np.full(n, float(feed_rate)), air])
         u[0, 0] = 0.0  # the first sample is taken at rest, the movement starts right after

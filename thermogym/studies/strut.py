@@ -522,7 +522,7 @@ def _diagnosis_gap(recs: Sequence[Recording], feeds: Sequence[float]) -> dict[st
     from thermogym.identification.diagnosis import diagnose
     from thermogym.identification.diagnosis.fit import prepare_experiments, simulate_all
 
-    rep = diagnose("strut", list(recs[:1]), list(recs[1:]), progress=False)
+    rep = diagnose("strut", list(recs[:1]), list(recs[1:]))
     out: dict[str, Any] = {
         "named": rep.best.get("effect") if rep.best else "none",
         "mismatch_detected": bool(rep.mismatch_detected),
