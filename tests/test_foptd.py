@@ -178,7 +178,7 @@ def test_cli_identify_foptd(tmp_path, capsys):
     fit = FitResult.load(out)
     assert fit.metrics["validation"]["mnrmse"] == pytest.approx(1.0, abs=1e-9)
     assert (tmp_path / "figs" / "foptd_delay_search.png").stat().st_size > 1000
-    assert "validation: MNRMSE 100.00 %" in capsys.readouterr().out
+    assert "validation: mean fit 100.00 %" in capsys.readouterr().out
     # a bad column name is a one-line error, not a traceback
     rc = cli_main(
         [

@@ -170,6 +170,9 @@ class FitResult:
         ISO 8601 time of creation (default: now, UTC).
     notes : str
         Free text.
+    warnings : list of dict
+        What the identification warned about, ``{"code", "message"}`` each
+        (:mod:`thermogym.identification.advice`).
 
     Raises
     ------
@@ -205,6 +208,7 @@ class FitResult:
     package_version: str = field(default_factory=_package_version)
     created: str = field(default_factory=_now)
     notes: str = ""
+    warnings: list[dict[str, str]] = field(default_factory=list)
 
     # ------------------------------------------------------------ validation
     def __post_init__(self) -> None:
@@ -255,6 +259,38 @@ class FitResult:
         self._covariance()
         check_known("covariance_names", self.covariance_names)
         self.data = self._data(self.data)
+        self.warnings = self._warnings(self.warnings)
+
+    @staticmethod
+    def _warnings(value: Any) -> list[dict[str, str]]:
+        if not isinstance(value, list | tuple):
+            raise ConfigError(
+                f"FitResult.warnings is a {type(value).__name__}, expected a list of "
+                "{'code', 'message'} dicts"
+            )
+        out = []
+        for i, w in enumerate(value):
+            if hasattr(w, "to_dict"):
+                w = w.to_dict()
+            if (
+                not isinstance(w, Mapping)
+                or not isinstance(w.get("code"), str)
+                or not isinstance(w.get("message"), str)
+            ):
+                raise ConfigError(
+                    f"FitResult.warnings[{i}] is {w!r:.80}; expected a dict with the strings "
+                    "'code' and 'message'"
+                )
+            out.append({"code": w["code"], "message": w["message"]})
+        return out
+
+    def add_warnings(self, warnings: Sequence[Any]) -> None:
+        """Append warnings (``FitWarning`` or ``{"code", "message"}``), skipping repeats."""
+        have = {(w["code"], w["message"]) for w in self.warnings}
+        for w in self._warnings(list(warnings)):
+            if (w["code"], w["message"]) not in have:
+                self.warnings.append(w)
+                have.add((w["code"], w["message"]))
 
     @staticmethod
     def _float_map(what: str, value: Any, *, allow_nan: bool) -> dict[str, float]:

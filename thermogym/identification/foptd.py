@@ -56,6 +56,7 @@ from scipy.signal import lfilter
 
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.fitresult import FitResult
+from thermogym.identification.advice import FitWarning, check_fit
 from thermogym.identification.linear_fit import (
     OPERATING_POINTS,
     data_entries,
@@ -362,7 +363,13 @@ def _oe_solve(
     G = X.T @ X
     scale = np.sqrt(np.maximum(np.diag(G), 1e-300))
     Gs = G / np.outer(scale, scale)
-    th = (np.linalg.pinv(Gs, rcond=1e-12, hermitian=True) @ ((X.T @ y) / scale)) / scale
+    rhs = (X.T @ y) / scale
+    try:
+        th = np.linalg.solve(Gs, rhs) / scale
+        if not np.isfinite(th).all():
+            raise np.linalg.LinAlgError
+    except np.linalg.LinAlgError:  # collinear columns: the minimum-norm solution
+        th = (np.linalg.pinv(Gs, rcond=1e-12, hermitian=True) @ rhs) / scale
     r = y - X @ th
     return float(r @ r) / y.size, th, X
 
@@ -848,6 +855,7 @@ def fit_foptd(
     fit.metrics["train"] = evaluate_fit(fit, train_recs)
     if vals:
         fit.metrics["validation"] = evaluate_fit(fit, vals)
+    fit.add_warnings(_warnings(fit, K, T, tau, dt, delays, n_min, outputs, exo, units))
     return FOPTDResult(
         fit=fit,
         model=model,
@@ -859,3 +867,40 @@ def fit_foptd(
         dt=dt,
         seconds=seconds,
     )
+
+
+def _warnings(
+    fit: FitResult,
+    K: NDArray[np.float64],
+    T: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    dt: float,
+    delays: NDArray[np.int64],
+    n_min: int,
+    outputs: Sequence[str],
+    exo: Sequence[str],
+    units: dict[str, str],
+) -> list[FitWarning]:
+    """Fits below zero, gain signs, time constants at the bound, delays at the range's edge."""
+    out = check_fit(fit, units=units)
+    for j, o in enumerate(outputs):
+        for i, c in enumerate(exo):
+            if T[j, i] >= 9.0 * n_min * dt:
+                out.append(
+                    FitWarning(
+                        "time_constant_bound",
+                        f"time constant of output {o!r} after {c!r} is {T[j, i]:.4g} s, at "
+                        f"the search bound (ten record lengths): the record does not settle "
+                        f"enough to tell the gain ({K[j, i]:.4g}) from the time constant",
+                    )
+                )
+            if delays.size > 1 and round(tau[j, i] / dt) >= int(delays[-1]):
+                out.append(
+                    FitWarning(
+                        "order_at_edge",
+                        f"the delay of output {o!r} after {c!r} is {tau[j, i]:.4g} s, the "
+                        f"largest searched ({int(delays[-1])} samples): the best may lie beyond; "
+                        "raise the largest delay (--max-delay-s)",
+                    )
+                )
+    return out
