@@ -103,7 +103,8 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         help="foptd: 'estimate' (default) fits the output offset and the initial lag, no "
         "sample is taken as rest; the others subtract from each experiment its first samples "
         "(initial, paper 000), its means (mean) or nothing (none; rest: inputs from zero). "
-        "rls: default initial; n4sid: default none",
+        "rls: default initial; n4sid: default mean (MATLAB's detrend; 'none' for data "
+        "already prepared as deviations, e.g. rises above ambient)",
     )
     p.add_argument(
         "--x0",
@@ -377,7 +378,7 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
             raise ConfigError(
                 f"--decimate {args.decimate!r}: expected a whole number or 'auto'"
             ) from None
-    opm = args.operating_point or "none"
+    opm = args.operating_point or "mean"
     tol = float(args.cv_tolerance)
     if not (tol >= 0 and np.isfinite(tol)):
         raise ConfigError(f"--cv-tolerance {args.cv_tolerance!r}: expected a number >= 0 (percent)")
