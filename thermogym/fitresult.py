@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 import thermogym
+from thermogym._checks import nonnegative
 from thermogym._fileio import atomic_write_text, to_jsonable
 from thermogym.errors import ConfigError, ParameterError
 from thermogym.recording import Recording
@@ -584,6 +585,7 @@ class FitResult:
         ParameterError
             A parameter name is unknown to the model.
         """
+        # the registry loads every plant model (~0.5 s): only when one is built
         from thermogym.models.registry import get_model
 
         config = dict(self.model_config)
@@ -686,8 +688,7 @@ class FitResult:
             raise ParameterError(f"n is {n!r}, expected a positive number of parameter sets")
         if method not in _SAMPLE_METHODS:
             raise ConfigError(f"method is {method!r}, expected one of {_SAMPLE_METHODS}")
-        if not (math.isfinite(scale) and scale >= 0):
-            raise ParameterError(f"scale is {scale!r}, expected a finite number >= 0")
+        nonnegative("scale", scale, text=False)
         if isinstance(rng, int | np.integer) and not isinstance(rng, bool):
             rng = np.random.default_rng(int(rng))
         if not isinstance(rng, np.random.Generator):

@@ -52,6 +52,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.optimize import minimize_scalar
 from scipy.signal import lfilter
 
 from thermogym.errors import ConfigError, IdentificationError
@@ -239,8 +240,6 @@ def _stable_fit(
     record does not determine the gain (the output integrates, or is so far
     from settling that only ``K/T`` shows): None.
     """
-    from scipy.optimize import minimize_scalar
-
     m = d.size
     y_all = np.concatenate(ys)
     n_max = max(u.shape[0] for u in us)

@@ -64,12 +64,10 @@ Hankel matrices (``benchmarks/n4sid.py`` measures both).
 
 from __future__ import annotations
 
-import contextlib
-import functools
 import math
 import time
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -91,6 +89,7 @@ from thermogym.identification.linear_fit import (
     operating_point,
     signal_arrays,
 )
+from thermogym.models._blas import blas_threads, single_blas_thread
 from thermogym.models.linear import StateSpaceModel, c2d_zoh, d2c_zoh
 from thermogym.recording import Recording
 
@@ -105,38 +104,6 @@ __all__ = [
     "n4sid",
     "n4sid_decompose",
 ]
-
-try:  # limits BLAS threads around small-matrix work (optional)
-    from threadpoolctl import threadpool_limits
-except ImportError:  # pragma: no cover - threadpoolctl not installed
-    threadpool_limits = None
-
-
-@contextlib.contextmanager
-def blas_single_thread() -> Iterator[None]:
-    """Run BLAS/LAPACK on one thread inside the block.
-
-    The matrices here are small (tens to hundreds of rows): extra BLAS threads
-    only add synchronisation, and on a busy machine OpenBLAS's spinning
-    threads made a 1500 × 96 QR take 0.2-1.4 s instead of 8 ms.
-    """
-    if threadpool_limits is None:  # pragma: no cover
-        yield
-        return
-    with threadpool_limits(limits=1, user_api="blas"):
-        yield
-
-
-def _one_blas_thread(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Decorator: run ``fn`` under :func:`blas_single_thread`."""
-
-    @functools.wraps(fn)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        with blas_single_thread():
-            return fn(*args, **kwargs)
-
-    return wrapper
-
 
 #: Weightings of the projected Hankel matrix before the SVD.
 WEIGHTINGS: tuple[str, ...] = ("moesp", "cva", "n4sid")
@@ -539,7 +506,7 @@ class StateSpaceFit:
         Psi = _obs_seq(
             np.ascontiguousarray(self.A_id), np.ascontiguousarray(self.C_id), ur.shape[0]
         )
-        with blas_single_thread():
+        with blas_threads(1):
             sol = np.linalg.lstsq(
                 Psi.reshape(-1, self.order), (yr - forced).reshape(-1), rcond=None
             )
@@ -665,7 +632,7 @@ class N4SIDDecomposition:
             )
         return int(order)
 
-    @_one_blas_thread
+    @single_blas_thread
     def system(
         self,
         order: int,
@@ -1001,7 +968,7 @@ def _default_horizon(max_order: int, p: int) -> int:
     return max(10, math.ceil(max_order / p) + 1)
 
 
-@_one_blas_thread
+@single_blas_thread
 def n4sid_decompose(
     u: Sequence[NDArray[np.float64]],
     y: Sequence[NDArray[np.float64]],
