@@ -60,8 +60,8 @@ def run(args: argparse.Namespace) -> int:
             )
         model = fit.build_model()
         theta = fit.theta(model)
-        if fit.model in ("ss", "foptd") and "operating_point" in fit.settings:
-            linear = fit  # a deviation model: apply its operating point and initial state
+        if fit.model in ("ss", "foptd"):
+            linear = fit  # its operating point and an initial state chosen by --x0
     elif args.model:
         model = get_model(args.model)
         theta = model.theta()
