@@ -639,6 +639,15 @@ class FitResult:
             model = self.build_model()
         else:
             self._check_model(model)
+        missing = [n for n in model.param_names if n not in self.parameters]
+        if missing:
+            shown = missing if len(missing) <= 12 else [*missing[:12], "..."]
+            raise ParameterError(
+                f"the FitResult of model {self.model!r} lacks parameter(s) {shown} "
+                f"({len(missing)} of {len(model.param_names)}); a FitResult gives every "
+                "parameter of its model (a missing one would silently take the nominal value): "
+                "refit, or write the values in"
+            )
         return model.theta(self.parameters)
 
     def sample(
