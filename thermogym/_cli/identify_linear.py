@@ -81,7 +81,9 @@ def build_parser(method: str) -> argparse.ArgumentParser:
             "rls": "FOPTD parameters by recursive least squares with forgetting",
         }[method],
     )
-    p.add_argument("data", nargs="+", help="training recordings (CSV/Parquet)")
+    p.add_argument(
+        "data", nargs="+", help="training recordings (CSV/Parquet files or dataset:NAME)"
+    )
     p.add_argument("--validate", nargs="+", default=[], metavar="DATA", help="validation data")
     p.add_argument("--model", help="thermogym plant whose signal names to use (e.g. spindle)")
     p.add_argument("--inputs", help="exogenous columns, comma separated")
@@ -99,12 +101,14 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         "--operating-point",
         choices=("estimate", "none", "initial", "mean", "rest")
         if method == "foptd"
+        else ("auto", "none", "initial", "mean")
+        if method == "n4sid"
         else ("none", "initial", "mean"),
         help="foptd: 'estimate' (default) fits the output offset and the initial lag, no "
         "sample is taken as rest; the others subtract from each experiment its first samples "
         "(initial, paper 000), its means (mean) or nothing (none; rest: inputs from zero). "
-        "rls: default initial; n4sid: default mean (MATLAB's detrend; 'none' for data "
-        "already prepared as deviations, e.g. rises above ambient)",
+        "rls: default initial; n4sid: default auto, the better of none (absolute levels: a "
+        "plant at rest at zero input) and mean (MATLAB's detrend) on held-out folds",
     )
     p.add_argument(
         "--x0",
@@ -163,7 +167,12 @@ def _load(paths: list[str], prep: dict[str, Any] | None) -> list[Any]:
 
     recs = []
     for path in paths:
-        rec = read_recording(path)
+        if path.startswith("dataset:"):  # a shipped data set (thermogym.datasets)
+            from thermogym.datasets import load
+
+            rec = load(path.split(":", 1)[1])
+        else:
+            rec = read_recording(path)
         if rec.experiment_id is None:
             rec = rec.replace(experiment_id=Path(path).stem.split(".")[0])
         recs.append(prepare(rec, **prep) if prep is not None else rec)
@@ -378,7 +387,7 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
             raise ConfigError(
                 f"--decimate {args.decimate!r}: expected a whole number or 'auto'"
             ) from None
-    opm = args.operating_point or "mean"
+    opm = args.operating_point or "auto"
     tol = float(args.cv_tolerance)
     if not (tol >= 0 and np.isfinite(tol)):
         raise ConfigError(f"--cv-tolerance {args.cv_tolerance!r}: expected a number >= 0 (percent)")
@@ -389,39 +398,65 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
         "weighting": args.weighting,
         "feedthrough": args.feedthrough,
         "x0": "zero" if args.x0 == "zero" else "estimate",
-        "operating_point_mode": opm,
     }
     cv = None
     order = args.order
     orders = _range(args.orders) if args.order is None else range(args.order, args.order + 1)
     notes: list[Any] = []
-    if args.folds is not None:
+    folds = None
+    if args.folds is not None or opm == "auto":
         from thermogym.identification.advice import FitWarning
         from thermogym.identification.linear_fit import exogenous_roles
 
         ins, dis = exogenous_roles(train[0], inputs, dist)
-        folds, texts = make_folds(train, args.folds, ins + dis)
+        folds, texts = make_folds(train, args.folds or 2, ins + dis)
         notes += [FitWarning("cv_fallback", t) for t in texts]
         for t in texts:
             print(f"  note: {t}")
-        if folds is not None:
-            cv = cross_validate_order(
-                folds, inputs, outputs, orders, scheme=args.scheme, tolerance=tol / 100, **common
+    cvs = {}
+    if folds is not None and (args.folds is not None or opm == "auto"):
+        for mode in ("none", "mean") if opm == "auto" else (opm,):
+            cvs[mode] = cross_validate_order(
+                folds,
+                inputs,
+                outputs,
+                orders,
+                scheme=args.scheme,
+                tolerance=tol / 100,
+                operating_point_mode=mode,
+                **common,
             )
-            order = cv.chosen_order
-            notes += cv.warnings()
-            k = len(folds)
-            i_c = list(cv.orders).index(order)
+    if opm == "auto":
+        # the operating point by cross-validation: "none" keeps the absolute levels (a plant
+        # at rest at zero input: rises above ambient, an ambient input), "mean" removes them
+        # (an output with an offset of its own, MATLAB's detrend); the better held-out fit wins
+        if cvs:
+            score = {m: float(c.va[list(c.orders).index(c.chosen_order)]) for m, c in cvs.items()}
+            opm = max(score, key=lambda m: (score[m], m == "mean"))
             print(
-                f"{k}-fold cross-validation ({args.scheme}) over orders {orders.start}.."
-                f"{orders.stop - 1} in {cv.seconds['total']:.2f} s: n* = {order}, the smallest "
-                f"order within {tol:g} % of the best validation fit (TA {fit_text(cv.ta[i_c])}, "
-                f"VA {fit_text(cv.va[i_c])}; argmax VA: {cv.best_order})"
+                f"operating point: {opm} (cross-validated: none VA {fit_text(score['none'])}, "
+                f"mean VA {fit_text(score['mean'])}; --operating-point sets it)"
             )
-            for row in cv.table():
-                print(
-                    f"    n = {row['order']:3d}  TA {fit_text(row['TA'])}  VA {fit_text(row['VA'])}"
-                )
+        else:
+            opm = "mean"
+            print(
+                "operating point: mean (no folds to cross-validate it; --operating-point sets it)"
+            )
+    common["operating_point_mode"] = opm
+    if args.folds is not None and opm in cvs:
+        cv = cvs[opm]
+        order = cv.chosen_order
+        notes += cv.warnings()
+        k = len(cv.folds)
+        i_c = list(cv.orders).index(order)
+        print(
+            f"{k}-fold cross-validation ({args.scheme}) over orders {orders.start}.."
+            f"{orders.stop - 1} in {cv.seconds['total']:.2f} s: n* = {order}, the smallest "
+            f"order within {tol:g} % of the best validation fit (TA {fit_text(cv.ta[i_c])}, "
+            f"VA {fit_text(cv.va[i_c])}; argmax VA: {cv.best_order})"
+        )
+        for row in cv.table():
+            print(f"    n = {row['order']:3d}  TA {fit_text(row['TA'])}  VA {fit_text(row['VA'])}")
     res = n4sid(
         train,
         inputs,
