@@ -12,7 +12,7 @@ import thermogym
 from thermogym.errors import ParameterError
 from thermogym.fitresult import FitResult
 
-IDS = thermogym.envs.ENV_IDS
+IDS = tuple(thermogym.ENVIRONMENTS)
 
 
 def _first_param(env_id: str) -> tuple[str, float]:
