@@ -17,6 +17,7 @@ import json
 from pathlib import Path
 
 from thermogym.errors import ConfigError
+from thermogym.recording import Recording
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -42,7 +43,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", help="write the fits per output as JSON")
 
 
-def load_one(item: str) -> object:
+def load_one(item: str) -> Recording:
     """One recording from a file or ``dataset:NAME``."""
     from thermogym._cli.diagnose import load_data
 
@@ -77,11 +78,11 @@ def run(args: argparse.Namespace) -> int:
             )
     check_outputs([args.plot, args.json], [*args.fits, args.data])
     rec = load_one(args.data)
-    result = compare(args.fits, rec, x0=args.x0, k_step=args.k_step, labels=labels)  # type: ignore[arg-type]
+    result = compare(args.fits, rec, x0=args.x0, k_step=args.k_step, labels=labels)
     how = f"{args.k_step}-step prediction" if args.k_step else "simulation"
     print(
-        f"compare on {rec.experiment_id or args.data} ({rec.n_samples} samples, dt = "  # type: ignore[attr-defined]
-        f"{rec.dt:g} s), {how}; fit = NRMSE fit in %"  # type: ignore[attr-defined]
+        f"compare on {rec.experiment_id or args.data} ({rec.n_samples} samples, dt = "
+        f"{rec.dt:g} s), {how}; fit = NRMSE fit in %"
     )
     width = max(len(m.label) for m in result.models)
     header = "  ".join(f"{o:>14}" for o in result.outputs)

@@ -61,10 +61,10 @@ def run(args: argparse.Namespace) -> int:
     rec = load_one(args.data)
     tests = resid(
         args.fit, rec, x0=args.x0, k_step=args.k_step, max_lag=args.max_lag, alpha=args.alpha
-    )  # type: ignore[arg-type]
+    )
     what = f"{args.k_step}-step prediction errors" if args.k_step else "simulation residuals"
     print(
-        f"residual tests of {what} on {rec.experiment_id or args.data} "  # type: ignore[attr-defined]
+        f"residual tests of {what} on {rec.experiment_id or args.data} "
         f"(lags up to {args.max_lag}, level {args.alpha:g})"
     )
     for name, t in tests.items():
@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         from thermogym.identification.linear_plots import plot_resid
 
-        print(f"  figure: {plot_resid(tests, args.plot, dt=rec.dt)}")  # type: ignore[attr-defined]
+        print(f"  figure: {plot_resid(tests, args.plot, dt=rec.dt)}")
     if args.json:
         doc = {name: t.to_dict(args.alpha) for name, t in tests.items()}
         atomic_write_text(args.json, json.dumps(doc, indent=2) + "\n")

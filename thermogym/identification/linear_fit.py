@@ -355,7 +355,7 @@ def predict(
     if operating == "auto":
         operating = "recording" if mode_op in ("initial", "rest") else "fit"
     if operating == "recording" and y is not None and mode_op in OPERATING_POINTS:
-        u_rec, y_rec = operating_point(u, y, str(op["mode"]))
+        u_rec, y_rec = operating_point(u, y, str(mode_op))
         model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec)
         used = "recording"
     mode = x0

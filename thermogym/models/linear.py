@@ -204,7 +204,7 @@ def _period(dt: float, what: str) -> float:
 
 
 def _vector(
-    name: str, value: ArrayLike | None, names: Sequence[str], what: str
+    name: str, value: ArrayLike | Mapping[str, float] | None, names: Sequence[str], what: str
 ) -> NDArray[np.float64]:
     """An operating-point vector: one finite value per named signal (zeros when None)."""
     n = len(names)
@@ -313,6 +313,9 @@ class _LinearModel(Model):
     model's default), :meth:`operating_point`, ``_start(mode, ...)`` and
     :meth:`estimate_x0`.
     """
+
+    n_inputs: int
+    n_outputs: int
 
     def operating_point(
         self, theta: ThetaLike = None
