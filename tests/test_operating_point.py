@@ -251,3 +251,23 @@ def test_bad_choices_are_refused_by_the_parser(argv):
     with pytest.raises(SystemExit) as e:
         cli_main(argv)
     assert e.value.code == 2
+
+
+def test_compare_takes_a_nonlinear_fit_too():
+    from thermogym.models import AXT211
+
+    model = AXT211()
+    n = 300
+    u = np.column_stack([np.r_[np.zeros(50), np.ones(n - 50)], np.full(n, 24.0), np.full(n, 25.0)])
+    assert model.exogenous_names == ("u", "k_U", "T_U")
+    sim = model.simulate(u, 1.0)
+    cols = {c: u[:, i] for i, c in enumerate(model.exogenous_names)}
+    cols |= {c: sim.outputs[0, :, j] for j, c in enumerate(model.output_names)}
+    rec = Recording(np.arange(float(n)), cols, experiment_id="axt")
+    fit = FitResult.from_model(model, method="nominal")
+    c = compare([fit], rec, k_step=1)
+    m = c.models[0]
+    assert m.x0 == "model" and "no noise model" in m.note
+    assert all(v == pytest.approx(1.0) for v in m.fits.values() if np.isfinite(v))
+    with pytest.raises(ConfigError, match="applies to linear fits"):
+        compare([fit], rec, x0="zero")

@@ -20,7 +20,7 @@ The JSON file is a single object::
      "data": [{"experiment_id": ..., "fingerprint": ..., "n_samples": ...,
                "source": ..., "role": "train"}],
      "package_version": "0.1.0", "created": "2025-01-01T00:00:00+00:00",
-     "notes": ""}
+     "notes": "", "warnings": [{"code": "gain_sign", "message": "..."}]}
 
 JSON has no NaN or infinity: NaN (in standard errors, metrics, arrays) is
 written as ``null`` and read back as NaN; an infinite bound is written as

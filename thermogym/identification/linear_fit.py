@@ -10,12 +10,16 @@
   ``detrend``), ``"none"`` zero (data already prepared, e.g. the spindle's
   temperature rises above ambient). The FitResult stores the mode and the
   training values in ``settings["operating_point"]``.
-* :func:`predict_fit` simulates an ``ss`` or ``foptd`` FitResult on a
-  recording the way the identification evaluated it (operating point of that
-  recording, initial state estimated or zero) and :func:`evaluate_fit` turns
-  that into the metrics of :mod:`thermogym.identification.metrics`.
-  :func:`simulate_recording` is the same as a recording, for
-  ``thermogym simulate --params fit.json``.
+* :func:`predict` simulates (or predicts ``k_step`` ahead) an ``ss`` or
+  ``foptd`` FitResult on a recording: the model's own operating point (stored
+  in the fit's ``model_config``; older ``ss`` fits keep it in the settings) or
+  the recording's, and the initial state ``x0`` = ``"estimate"`` (least
+  squares on the recording's outputs), ``"steady"`` or ``"zero"``
+  (``"auto"``: estimate when the outputs are there). Every command that shows
+  a linear fit on data goes through it, so they agree; the diagnosis and other
+  callers use it too. :func:`predict_fit` returns just the outputs,
+  :func:`evaluate_fit` the metrics of :mod:`thermogym.identification.metrics`,
+  :func:`simulate_recording` a recording (``thermogym simulate --params``).
 """
 
 from __future__ import annotations
