@@ -271,3 +271,17 @@ def test_compare_takes_a_nonlinear_fit_too():
     assert all(v == pytest.approx(1.0) for v in m.fits.values() if np.isfinite(v))
     with pytest.raises(ConfigError, match="applies to linear fits"):
         compare([fit], rec, x0="zero")
+
+
+def test_controllers_linear_plant_takes_the_models_operating_point(ss_fit):
+    from thermogym.controllers.linmodel import linear_plant
+    from thermogym.models.linear import FOPTDModel
+
+    lp = linear_plant(ss_fit)
+    assert lp.u_op == pytest.approx(5.0) and lp.y_op.tolist() == pytest.approx([18.0, 21.0])
+    fo = FOPTDModel(["P"], ["T"], K=2.0, T=100.0, tau=20.0, offsets=True, y0=20.0, u_op=[5.0])
+    lp = linear_plant(FitResult.from_model(fo), dt=10.0)
+    assert lp.u_op == pytest.approx(5.0) and lp.y_op.tolist() == pytest.approx([20.0])
+    # the plant's steady state at u = 8 is the model's: y0 + K (8 − u_op)
+    (G,) = lp.dc_gain()[:1]
+    assert float(lp.y_op[0] + G[0, 0] * (8.0 - lp.u_op)) == pytest.approx(26.0)
