@@ -147,7 +147,7 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         p.add_argument("--feedthrough", action="store_true", help="estimate D")
         p.add_argument(
             "--cv-tolerance",
-            type=float,
+            type=number(0.0, 100.0, what="a tolerance in percentage points"),
             default=100 * DEFAULT_TOLERANCE,
             metavar="PERCENT",
             help="the order is the smallest whose validation fit is within this many "
@@ -397,7 +397,6 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
 
 
 def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # type: ignore[no-untyped-def]
-    import numpy as np
 
     from thermogym.identification.crossval import cross_validate_order, make_folds
     from thermogym.identification.metrics import fit_text
@@ -406,8 +405,6 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     decimate: int | str = args.decimate
     opm = args.operating_point or "auto"
     tol = float(args.cv_tolerance)
-    if not (tol >= 0 and np.isfinite(tol)):
-        raise ConfigError(f"--cv-tolerance {args.cv_tolerance!r}: expected a number >= 0 (percent)")
     common = {
         "disturbances": dist,
         "horizon": args.horizon,
@@ -423,7 +420,9 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     folds = None
     if args.folds is not None or opm == "auto":
         from thermogym.identification.advice import FitWarning
-        from thermogym.identification.linear_fit import exogenous_roles
+        from thermogym.identification.linear_fit import exogenous_roles, signal_arrays
+
+        signal_arrays(train, inputs, outputs, min_samples=8, what="N4SID")  # checked first
 
         ins, dis = exogenous_roles(train[0], inputs, dist)
         folds, texts = make_folds(train, args.folds or 2, ins + dis)

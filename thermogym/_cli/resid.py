@@ -17,7 +17,9 @@ from __future__ import annotations
 import argparse
 import json
 
-from thermogym.errors import ConfigError
+from thermogym._cli.common import plan_outputs, probability, whole
+from thermogym._cli.compare import X0_OPTION, load_one
+from thermogym._cli.data import add_data_options
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -26,59 +28,59 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", required=True, help="recording (file or dataset:NAME)")
     p.add_argument(
         "--x0",
-        choices=("auto", "estimate", "steady", "zero"),
+        choices=X0_OPTION,
         default="auto",
         help="initial state of a linear fit (default auto: estimated from the outputs)",
     )
     p.add_argument(
         "--k-step",
-        type=int,
+        type=whole(1, 1_000_000, what="a prediction horizon in samples"),
         metavar="K",
         help="test the K-step prediction errors (1: one-step, as MATLAB for models with a "
         "noise model) instead of the simulation residuals",
     )
-    p.add_argument("--max-lag", type=int, default=25, help="largest lag M [samples] (25)")
     p.add_argument(
-        "--alpha", type=float, default=0.01, help="level of the bounds and verdicts (0.01)"
+        "--max-lag",
+        type=whole(1, 100_000, what="a number of lags"),
+        default=25,
+        help="largest lag M [samples] (25)",
+    )
+    p.add_argument(
+        "--alpha", type=probability(), default=0.01, help="level of the bounds and verdicts (0.01)"
     )
     p.add_argument("--plot", help="PNG to write")
     p.add_argument("--json", help="write the test results as JSON")
+    add_data_options(p)
 
 
 def run(args: argparse.Namespace) -> int:
     """Test and print the verdicts."""
-    from thermogym._cli.compare import check_outputs, load_one
-    from thermogym._fileio import atomic_write_text
     from thermogym.identification.compare import resid
 
-    if args.k_step is not None and args.k_step < 1:
-        raise ConfigError(f"--k-step {args.k_step}: expected a whole number of samples >= 1")
-    if args.max_lag < 1:
-        raise ConfigError(f"--max-lag {args.max_lag}: expected a whole number of samples >= 1")
-    if not 0.0 < args.alpha < 1.0:
-        raise ConfigError(f"--alpha {args.alpha}: expected a level in (0, 1), e.g. 0.01")
-    check_outputs([args.plot, args.json], [args.fit, args.data])
-    rec = load_one(args.data)
-    tests = resid(
-        args.fit, rec, x0=args.x0, k_step=args.k_step, max_lag=args.max_lag, alpha=args.alpha
-    )
-    what = f"{args.k_step}-step prediction errors" if args.k_step else "simulation residuals"
-    print(
-        f"residual tests of {what} on {rec.experiment_id or args.data} "
-        f"(lags up to {args.max_lag}, level {args.alpha:g})"
-    )
-    for name, t in tests.items():
-        verdict = "white" if t.white(args.alpha) else "NOT white (coloured residuals)"
-        print(f"  {name}: whiteness p = {t.p_white:.3g}: {verdict}")
-        for u, p in t.p_independent.items():
-            ok = "independent" if p >= args.alpha else "CORRELATED with the input"
-            print(f"    × {u}: p = {p:.3g}: {ok}")
-    if args.plot:
-        from thermogym.identification.linear_plots import plot_resid
+    plan = plan_outputs(args, files={"plot": "figure", "json": "json"}, inputs=("fit", "data"))
+    with plan:
+        rec = load_one(args.data, args)
+        tests = resid(
+            args.fit, rec, x0=args.x0, k_step=args.k_step, max_lag=args.max_lag, alpha=args.alpha
+        )
+        what = f"{args.k_step}-step prediction errors" if args.k_step else "simulation residuals"
+        print(
+            f"residual tests of {what} on {rec.experiment_id or args.data} "
+            f"(lags up to {args.max_lag}, level {args.alpha:g})"
+        )
+        for name, t in tests.items():
+            verdict = "white" if t.white(args.alpha) else "NOT white (coloured residuals)"
+            print(f"  {name}: whiteness p = {t.p_white:.3g}: {verdict}")
+            for u, p in t.p_independent.items():
+                ok = "independent" if p >= args.alpha else "CORRELATED with the input"
+                print(f"    × {u}: p = {p:.3g}: {ok}")
+        if args.plot:
+            from thermogym.identification.linear_plots import plot_resid
 
-        print(f"  figure: {plot_resid(tests, args.plot, dt=rec.dt)}")
-    if args.json:
-        doc = {name: t.to_dict(args.alpha) for name, t in tests.items()}
-        atomic_write_text(args.json, json.dumps(doc, indent=2) + "\n")
-        print(f"  wrote {args.json}")
+            plot_resid(tests, plan.path("--plot"), dt=rec.dt)
+            print(f"  figure: {args.plot}")
+        if args.json:
+            doc = {name: t.to_dict(args.alpha) for name, t in tests.items()}
+            plan.path("--json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+            print(f"  wrote {args.json}")
     return 0

@@ -166,9 +166,11 @@ def split_recording(rec: Recording, k: int) -> list[Recording]:
 
 
 def _changes(x: NDArray[np.float64]) -> NDArray[np.int64]:
-    """Indices ``i`` where ``x[i + 1]`` differs from ``x[i]`` (beyond round-off)."""
-    tol = 1e-12 * max(1.0, float(np.nanmax(np.abs(x))) if x.size else 1.0)
-    return np.flatnonzero(np.abs(np.diff(x)) > tol).astype(np.int64)
+    """Indices ``i`` where ``x[i + 1]`` differs from ``x[i]`` (beyond round-off; NaN: none)."""
+    finite = np.abs(x[np.isfinite(x)])
+    tol = 1e-12 * max(1.0, float(finite.max()) if finite.size else 1.0)
+    with np.errstate(invalid="ignore"):
+        return np.flatnonzero(np.abs(np.diff(x)) > tol).astype(np.int64)
 
 
 def split_excited(
