@@ -33,6 +33,7 @@ from thermogym._cli.data import (
     parse_prepare,
 )
 from thermogym.errors import ConfigError
+from thermogym.identification.linear_fit import X0_CHOICES
 
 METHODS = ("arx", "armax", "oe", "bj", "sopdt", "ssest", "auto")
 _OP_MODES = ("auto", "mean", "none", "initial", "rest")
@@ -93,6 +94,13 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         type=whole(2, 100, what="a number of folds"),
         default=2,
         help="cross-validation folds (default 2)",
+    )
+    p.add_argument(
+        "--x0",
+        choices=X0_CHOICES,
+        default="auto",
+        help="initial state when the fit is simulated on the recordings (metrics, plots): "
+        "estimate, steady, zero; auto (default): estimate",
     )
     p.add_argument("--out", required=True, help="FitResult JSON to write")
     p.add_argument("--plots", help="folder for figures")
@@ -309,12 +317,12 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     fit = res.fit
     if op != args.operating_point:
         fit.settings["operating_point_choice"] = {"mode": op, "rule": "ARX cross-validation"}
-    _report(fit)
+    _report(fit, args.x0)
     fit.save(plan.path("--out"))
     plots = plan.get("--plots")
     if plots:
-        figures = _plot_fits(fit, train, plots, "train")
-        figures += _plot_fits(fit, vals, plots, "validation")
+        figures = _plot_fits(fit, train, plots, "train", args.x0)
+        figures += _plot_fits(fit, vals, plots, "validation", args.x0)
         for f in figures:
             print(f"  figure: {plan.final(f)}")
     print(f"wrote {args.out}")

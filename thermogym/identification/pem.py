@@ -63,8 +63,9 @@ from thermogym.identification.linear_fit import data_entries, evaluate_fit
 from thermogym.identification.metrics import nrmse
 from thermogym.identification.n4sid import N4SIDProblem, prepare_problem
 from thermogym.models._blas import blas_threads
+from thermogym.models._linear_kernels import _ss_predict_kernel, _ss_simulate_kernel
 from thermogym.models.base import Model
-from thermogym.models.linear import StateSpaceModel, _ss_predict_kernel, _ss_simulate_kernel
+from thermogym.models.linear import StateSpaceModel
 from thermogym.models.polynomial import STRUCTURES, PolynomialModel
 from thermogym.models.process import SOPDTModel, discrete_realization
 from thermogym.recording import Recording

@@ -76,17 +76,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from thermogym._checks import choice
 from thermogym.errors import ConfigError, ShapeError, SimulationError
-from thermogym.models.base import Model, Parameter, ThetaLike
-from thermogym.models.linear import (
-    StateSpaceMatrices,
-    StateSpaceModel,
+from thermogym.models._linear_base import (
     _broadcast_batch,
     _compact,
     _make_signals,
-    _ss_simulate_kernel,
     _transposed,
     _wide,
 )
+from thermogym.models._linear_kernels import _ss_simulate_kernel
+from thermogym.models.base import Model, Parameter, ThetaLike
+from thermogym.models.linear import StateSpaceMatrices, StateSpaceModel
 
 __all__ = ["MODELS", "STRUCTURES", "PolynomialModel", "PolynomialOrders"]
 

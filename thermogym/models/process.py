@@ -60,18 +60,10 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from thermogym.errors import ConfigError, ParameterError, ShapeError
+from thermogym.models._linear_base import _compact, _make_signals, _transposed, _wide
+from thermogym.models._linear_kernels import _ss_simulate_kernel
 from thermogym.models.base import Model, Parameter, ThetaLike
-from thermogym.models.linear import (
-    FOPTDModel,
-    StateSpaceMatrices,
-    StateSpaceModel,
-    _compact,
-    _make_signals,
-    _ss_simulate_kernel,
-    _transposed,
-    _wide,
-    foptd_zoh,
-)
+from thermogym.models.linear import FOPTDModel, StateSpaceMatrices, StateSpaceModel, foptd_zoh
 
 __all__ = ["MODELS", "SOPDTModel", "discrete_realization", "sopdt_zoh"]
 
