@@ -195,9 +195,13 @@ def radiation(T: Array, T_amb: Array, emissivity: Any, area: float) -> Array:
     return emissivity * SIGMA_SB * area * ((T + _K) ** 4 - (T_amb + _K) ** 4)
 
 
-def radiation_conductance(emissivity: Any, area: float, T_ref: float) -> Any:
-    """Linearised radiation conductance ``4 ε σ A T_ref³`` [W/K] at ``T_ref`` [°C]."""
-    return 4.0 * emissivity * SIGMA_SB * area * (T_ref + _K) ** 3
+def radiation_conductance(emissivity: Any, area: float, T_ref: float, dT_ref: float) -> Any:
+    """Secant radiation conductance [W/K]: the net radiation at ``T_ref`` over ``dT_ref``.
+
+    ``ε σ A (T_ref⁴ − (T_ref − ΔT_ref)⁴) / ΔT_ref`` (absolute temperatures): the
+    conductance that gives the same heat flow as radiation at that operating point.
+    """
+    return radiation(T_ref, T_ref - dT_ref, emissivity, area) / dT_ref
 
 
 def natural_convection(dT: Array, coefficient: Any, exponent: float) -> Array:

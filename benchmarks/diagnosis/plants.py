@@ -72,7 +72,9 @@ def rk4(
     ----------
     rhs : callable
         ``rhs(t, x, k) -> dx/dt`` for a batch of states ``x`` (B, n_x); ``t`` is
-        the time since the first sample [s], ``k`` the sample interval.
+        the middle of the current RK4 step since the first sample [s] (where
+        held and delayed inputs are read: exact for dead times that are whole
+        steps), ``k`` the sample interval.
     x0 : ndarray, shape (B, n_x)
     n : int
         Samples; the state at each sample instant is returned.
@@ -98,11 +100,13 @@ def rk4(
         if k == n - 1:
             break
         for s in range(n_sub):
-            t = k * dt + s * h
+            # every stage reads the held inputs at the middle of the step, so a stage at the
+            # step's end never sees the next sample's input
+            t = k * dt + (s + 0.5) * h
             k1 = rhs(t, x, k)
-            k2 = rhs(t + 0.5 * h, x + 0.5 * h * k1, k)
-            k3 = rhs(t + 0.5 * h, x + 0.5 * h * k2, k)
-            k4 = rhs(t + h, x + h * k3, k)
+            k2 = rhs(t, x + 0.5 * h * k1, k)
+            k3 = rhs(t, x + 0.5 * h * k2, k)
+            k4 = rhs(t, x + h * k3, k)
             x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
     return out
 
@@ -265,8 +269,8 @@ class PlatePlant(Family):
         "supply_variation",
     )
     AREA = 0.045  # m², both faces
-    T_REF = 50.0  # °C: the operating point where radiation and convection replace G
-    DT_REF = 28.0  # K: same, as a temperature difference to the air
+    T_REF = 50.0  # °C: the operating point where radiation and convection replace G,
+    DT_REF = 28.0  # K: 28 K above the design ambient of 22 °C
     CP_PCM = 2000.0  # J/(kg K), solid paraffin
     L_PCM = 200e3  # J/kg, paraffin latent heat
 
@@ -327,7 +331,7 @@ class PlatePlant(Family):
         eps, share, q = s["eps"], s["nc_share"], s["nc_exp"]
         # radiation and free convection replace part of G so the loss at T_REF stays G (the
         # effect changes the shape of the loss, not its size at the operating point)
-        G_lin = G * (1.0 - share) - radiation_conductance(eps, self.AREA, self.T_REF)
+        G_lin = G * (1.0 - share) - radiation_conductance(eps, self.AREA, self.T_REF, self.DT_REF)
         k_nc = G * share * self.DT_REF ** (1.0 - q)
         if np.any(G_lin < 0):
             raise ValueError(f"emissivity {eps} too large for G = {G}: negative convection")
