@@ -194,7 +194,7 @@ def _posthoc_share(
     Sensor errors: exact, on their signal. A clock skew of D seconds: the
     outputs against themselves D seconds later (what the skewed log implies
     for a time-invariant plant). An unmeasured ambient cycle d(t): mean(d²)
-    over the output variance, an upper bound (the ambient reaches a thermal
+    on the temperature outputs, an upper bound (the ambient reaches a thermal
     node with a DC gain of at most 1 and is filtered on its way).
     """
     on: dict[str, list[Array]] = {}
@@ -211,7 +211,9 @@ def _posthoc_share(
                 y_on = np.asarray(_post_hoc(fake, h, rng).columns[n], dtype=float)
             elif h.effect == "transport_delay":
                 y_on = np.interp(t + float(h.params["delay"]), t, y)
-            else:  # unmeasured ambient cycle
+            else:  # unmeasured ambient cycle: it reaches the temperatures only
+                if r.units.get(n) != "°C":
+                    continue
                 d = float(h.params["amplitude_K"]) * periodic(t, float(h.params["period"]), 0.0)
                 y_on = y + d
             on.setdefault(n, []).append(y_on)
