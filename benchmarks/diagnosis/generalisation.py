@@ -191,6 +191,8 @@ def run_case(case: Case, time_limit: float | None = None) -> dict[str, Any]:
         return row
     named, source = named_effects(report)
     ranked = ranking(report)
+    # hypotheses the diagnosis could not fit, with the first reason (for its engineers)
+    failed = [h for h in report.get("hypotheses") or [] if h.get("error")]
     before = _mean_fit((report.get("fit_before") or {}).get("validation"))
     after = _mean_fit((report.get("fit_after") or {}).get("validation"))
     if math.isnan(after):
@@ -202,6 +204,8 @@ def run_case(case: Case, time_limit: float | None = None) -> dict[str, Any]:
         named_effects_source=source,
         ranking=ranked,
         verdict=report.get("verdict", ""),
+        hypotheses_failed=len(failed),
+        hypotheses_failed_first=str(failed[0]["error"])[:300] if failed else None,
         mismatch_detected=report.get("mismatch_detected"),
         heldout_before=before,
         heldout_after=after,
@@ -251,6 +255,7 @@ def figures(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         "n_controls": len(ctrl),
         "n_correct": len(correct),
         "n_errors": sum(1 for r in rows if r.get("error")),
+        "n_cases_with_failed_hypotheses": sum(1 for r in rows if r.get("hypotheses_failed")),
     }
 
 
