@@ -66,12 +66,12 @@ demo: $(STAMP)
 	$(VENV)/bin/thermogym demo --out $(OUT) $(DEMO_ARGS)
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check thermogym tests benchmarks
-	$(VENV)/bin/ruff format --check thermogym tests benchmarks
+	$(VENV)/bin/ruff check thermogym tests benchmarks scripts
+	$(VENV)/bin/ruff format --check thermogym tests benchmarks scripts
 
 format: $(STAMP)
-	$(VENV)/bin/ruff format thermogym tests benchmarks
-	$(VENV)/bin/ruff check --fix thermogym tests benchmarks
+	$(VENV)/bin/ruff format thermogym tests benchmarks scripts
+	$(VENV)/bin/ruff check --fix thermogym tests benchmarks scripts
 
 BENCH_OUT ?= $(OUT)/bench
 

@@ -29,12 +29,13 @@ from pathlib import Path
 import numpy as np
 
 from thermogym.identification.coordinator import run_identification
-from thermogym.identification.greybox_axt211 import THERMAL, GreyboxConfig, reproduce_paper002
+from thermogym.identification.greybox_axt211 import THERMAL
 from thermogym.identification.problem import FreeParameter, Problem
-from thermogym.identification.strut_study import RATIOS
 from thermogym.models.axt211 import AXT211
 from thermogym.models.strut import StrutModel
 from thermogym.rigs import run_experiment
+from thermogym.studies.axt211 import GreyboxConfig, reproduce_paper002
+from thermogym.studies.strut import RATIOS
 
 
 def gradient_comparison(seed: int) -> dict:

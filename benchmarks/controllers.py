@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 
 from thermogym.controllers import run_benchmark
-from thermogym.controllers.report import kpi_axes
+from thermogym.controllers.tables import kpi_axes
 
 ROOT = Path(__file__).resolve().parent
 CONTROLLERS = {

@@ -3,7 +3,7 @@
 Exports the order-8, 3-input, 5-output observer (Table 6 3I5O of
 ``001_6d13a2cd04f5de5e.txt``: speed and the two outer-housing temperatures in,
 bearings and inner housing out) identified by N4SID on the rig's run-in day
-(:func:`thermogym.identification.spindle_study.virtual_sensor_fit`; the
+(:func:`thermogym.studies.spindle.virtual_sensor_fit`; the
 network-derived reference model when that module is missing), with test vectors
 from a held-out day of rig data, and measures
 
@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from thermogym.estimation import VirtualSensor
 from thermogym.firmware.codegen import TARGETS, footprint
 from thermogym.firmware.export import export
 from thermogym.firmware.reference import random_stable_model
@@ -48,7 +49,6 @@ from thermogym.firmware.toolchain import (
     run_host_test,
     run_simavr,
 )
-from thermogym.models.estimation import VirtualSensor
 
 #: simavr cycles per multiply-accumulate of the step, measured for the order-8 3I5O
 #: observer (56 644 cycles, 143 MACs): used only for estimates without the AVR tools.
@@ -65,11 +65,14 @@ def macs(n: int, m: int, q: int, p: int) -> int:
 
 def identified_3i5o():
     try:
-        from thermogym.identification.spindle_study import virtual_sensor_fit
+        from thermogym.studies.spindle import virtual_sensor_fit
     except ImportError:
         return None, "reference (spindle network, balanced residualisation)"
     fit = virtual_sensor_fit("3I5O", order=8)
-    return fit, "N4SID on the rig's run-in day D1_6000 (spindle_study.virtual_sensor_fit)"
+    return (
+        fit,
+        "N4SID on the rig's run-in day D1_6000 (thermogym.studies.spindle.virtual_sensor_fit)",
+    )
 
 
 def measure_case(out: Path, case: str, order: int, fit=None, avr: bool = True) -> dict:

@@ -37,9 +37,9 @@ import numpy as np
 from thermogym.identification.coordinator import run_identification
 from thermogym.identification.problem import Problem
 from thermogym.identification.simmodel import ThermogymModel
-from thermogym.identification.strut_study import OUTPUTS, RATIOS
 from thermogym.models.strut import StrutModel
 from thermogym.rigs import run_experiment
+from thermogym.studies.strut import OUTPUTS, RATIOS
 
 
 def load() -> tuple[float, float, float]:

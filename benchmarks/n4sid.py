@@ -40,8 +40,8 @@ from thermogym._fileio import atomic_write_text
 from thermogym.identification.crossval import cross_validate_order
 from thermogym.identification.metrics import nrmse
 from thermogym.identification.n4sid import n4sid, n4sid_decompose
-from thermogym.identification.spindle_study import OUTPUTS, spindle_data
 from thermogym.models.linear import StateSpaceModel
+from thermogym.studies.spindle import OUTPUTS, spindle_data
 
 
 def load() -> float:

@@ -1,6 +1,6 @@
 """FOPTD and cross-validated N4SID on every shipped real data set, validated on held-out data.
 
-For each case of :data:`thermogym.identification.realdata.CASES` (training
+For each case of :data:`thermogym.studies.realdata.CASES` (training
 and validation data named there) prints and writes the MNRMSE fit of both
 methods on the training and on the validation data, the N4SID order chosen by
 2-fold cross-validation, and a figure of the N4SID model on the first
@@ -23,7 +23,7 @@ from thermogym._fileio import atomic_write_text
 from thermogym.identification.linear_fit import predict_fit
 from thermogym.identification.linear_plots import plot_fit
 from thermogym.identification.metrics import nrmse
-from thermogym.identification.realdata import CASES, case_data, identify_case
+from thermogym.studies.realdata import CASES, case_data, identify_case
 
 
 def main() -> None:

@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from thermogym._fileio import atomic_write_text
-from thermogym.identification import spindle_study as ss
 from thermogym.identification.linear_fit import predict_fit
 from thermogym.identification.linear_plots import plot_fit, plot_order_cv, plot_va_matrix
+from thermogym.studies import spindle as ss
 
 
 def main() -> None:

@@ -21,7 +21,7 @@ import json
 import os
 from pathlib import Path
 
-from thermogym.identification.strut_study import StrutStudyConfig, run_strut_study
+from thermogym.studies.strut import StrutStudyConfig, run_strut_study
 
 
 def main() -> None:

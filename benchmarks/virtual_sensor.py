@@ -2,7 +2,7 @@
 
 Spindle (paper ``001_6d13a2cd04f5de5e.txt``, section 3.3). Order-8 models are
 identified by N4SID on the rig's run-in day ``D¹_6000`` (clean 1 Hz channels)
-in the formulations of :mod:`thermogym.models.estimation`:
+in the formulations of :mod:`thermogym.estimation`:
 
 * ``1I7O-KF`` — speed and ambient in, all seven temperatures out, the two
   surface temperatures *measured*: the steady-state Kalman observer corrects
@@ -11,7 +11,7 @@ in the formulations of :mod:`thermogym.models.estimation`:
   way of predicting, and the named peer of the ratios printed;
 * ``3I5O`` — Table 6's 3I5O with surface temperatures as *inputs*
   (identified on ambient-subtracted data, used with ``reference="T_amb"``),
-  from :func:`thermogym.identification.spindle_study.virtual_sensor_fit`;
+  from :func:`thermogym.studies.spindle.virtual_sensor_fit`;
 * ``3I5O+amb`` — the same with the ambient as a fourth input.
 
 The process-noise scale of each sensor is tuned on the other run-in day
@@ -51,9 +51,9 @@ from pathlib import Path
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from thermogym.estimation import AXT211WaxUKF, VirtualSensor, consistency
 from thermogym.identification.metrics import nrmse
 from thermogym.identification.n4sid import n4sid
-from thermogym.models.estimation import AXT211WaxUKF, VirtualSensor, consistency
 from thermogym.recording import Recording
 from thermogym.rigs import get_rig
 
@@ -94,7 +94,7 @@ def identify(train: Recording) -> dict:
     r4 = n4sid(train, ["speed", *SURFACE, "T_amb"], HIDDEN, order=8, disturbances=["T_amb"])
     fits = {"1I7O": r1.fit, "3I5O+amb": r4.fit}
     try:
-        from thermogym.identification.spindle_study import virtual_sensor_fit
+        from thermogym.studies.spindle import virtual_sensor_fit
 
         fits["3I5O"] = virtual_sensor_fit("3I5O", order=8)
     except ImportError:

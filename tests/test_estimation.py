@@ -13,9 +13,7 @@ import pytest
 import scipy.signal
 
 from thermogym.errors import ConfigError, ParameterError, ShapeError, UnknownNameError
-from thermogym.firmware.reference import spindle_reference_model
-from thermogym.identification.metrics import nrmse
-from thermogym.models.estimation import (
+from thermogym.estimation import (
     AXT211WaxUKF,
     NoiseModel,
     ObserverStatus,
@@ -26,6 +24,8 @@ from thermogym.models.estimation import (
     normalized_error_squared,
     steady_state_gains,
 )
+from thermogym.firmware.reference import spindle_reference_model
+from thermogym.identification.metrics import nrmse
 from thermogym.models.linear import StateSpaceModel
 
 HIDDEN = (

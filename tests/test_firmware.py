@@ -18,6 +18,7 @@ import pytest
 
 from thermogym.cli import main
 from thermogym.errors import ConfigError
+from thermogym.estimation import VirtualSensor
 from thermogym.firmware import rtd
 from thermogym.firmware.codegen import TARGETS, firmware_model, footprint
 from thermogym.firmware.export import C_SOURCES, c_source_dir, export
@@ -31,7 +32,6 @@ from thermogym.firmware.toolchain import (
     run_simavr,
 )
 from thermogym.fitresult import FitResult
-from thermogym.models.estimation import VirtualSensor
 
 needs_cc = pytest.mark.skipif(host_compiler() is None, reason="no host C compiler (cc/gcc)")
 needs_avr = pytest.mark.skipif(

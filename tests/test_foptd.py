@@ -79,7 +79,10 @@ def test_fitresult_round_trip_and_prediction(tmp_path):
     true, *_ = seven_outputs()
     train = step_recording(true, y0=21.0)
     val = step_recording(true, level=30.0, y0=23.5)  # another feed rate and start temperature
-    res = fit_foptd(train, ["v"], true.output_names, max_delay=20, validate=val)
+    # the paper's convention: each experiment is referred to its own initial values
+    res = fit_foptd(
+        train, ["v"], true.output_names, max_delay=20, validate=val, operating_point_mode="initial"
+    )
     path = res.fit.save(tmp_path / "fit.json")
     fit = load_fit(path)
     assert fit.model == "foptd" and fit.method == "foptd_least_squares"
@@ -114,7 +117,7 @@ def test_unsettled_slow_output_gets_a_stable_pole():
     from thermogym.rigs import run_experiment
 
     rec = run_experiment("strut", "steps", seed=0)[0]
-    res = fit_foptd(rec, ["feed_rate"], ["T_tube_front"])
+    res = fit_foptd(rec, ["feed_rate"], ["T_tube_front"], operating_point_mode="initial")
     f = res.outputs["T_tube_front"]
     assert 0.0 < f.a < 1.0 and np.isnan(f.cov).all()  # the pole-constrained path was taken
     assert np.isnan(res.fit.stderr["K_T_tube_front"])
@@ -138,6 +141,8 @@ def test_errors():
     u = np.r_[np.zeros(5), np.ones(95)]
     rec = Recording(t, {"u": u, "y": np.full(100, 21.0)})  # an output that never responds
     with pytest.raises(IdentificationError, match=r"no delay .* stable first-order lag"):
+        fit_foptd(rec, ["u"], ["y"], max_delay=5, operating_point_mode="initial")
+    with pytest.raises(IdentificationError, match="output 'y' is constant"):
         fit_foptd(rec, ["u"], ["y"], max_delay=5)
     with pytest.raises(ConfigError, match="not both"):
         fit_foptd(rec, ["u"], ["y"], max_delay=5, max_delay_s=5.0)

@@ -11,9 +11,7 @@ from thermogym.identification.coordinator import run_identification
 from thermogym.identification.greybox_axt211 import (
     THERMAL,
     AXT211Mechanics,
-    GreyboxConfig,
     fit_ptc_polynomial,
-    reproduce_paper002,
     smooth_disturbances,
 )
 from thermogym.identification.problem import FreeParameter, Problem
@@ -21,6 +19,7 @@ from thermogym.identification.uncertainty import estimate_input_noise
 from thermogym.models.axt211 import AXT211, ptc_resistance
 from thermogym.recording import Recording
 from thermogym.rigs import get_rig, to_recording
+from thermogym.studies.axt211 import GreyboxConfig, reproduce_paper002
 
 
 def test_ptc_polynomial_is_recovered_exactly_from_noise_free_data():

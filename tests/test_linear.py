@@ -236,7 +236,10 @@ def test_step_and_output_follow_simulate(mimo, rng):
     coarse = mimo.simulate(u[:5], dt=6.0).outputs[0]
     fine = mimo.simulate(np.repeat(u[:5], 3, axis=0), dt=2.0).outputs[0, ::3]
     np.testing.assert_allclose(coarse, fine, rtol=1e-12)
-    with pytest.raises(ShapeError, match="integer multiple"):
+    # a period that is no whole multiple needs a continuous equivalent; this A has a
+    # negative real eigenvalue and has none
+    assert (np.linalg.eigvals(mimo.matrices().A[0]).real < 0).any()
+    with pytest.raises(SimulationError, match="no real continuous-time equivalent"):
         mimo.simulate(u, dt=3.0)
 
 

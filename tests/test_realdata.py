@@ -8,7 +8,7 @@ import pytest
 from thermogym.errors import UnknownNameError
 from thermogym.fitresult import FitResult
 from thermogym.identification.linear_fit import evaluate_fit
-from thermogym.identification.realdata import CASES, case_data, identify_case
+from thermogym.studies.realdata import CASES, case_data, identify_case
 
 
 def test_tclab_runs_are_resampled_to_a_uniform_grid():

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from thermogym.identification import spindle_study as ss
 from thermogym.models.linear import StateSpaceModel
+from thermogym.studies import spindle as ss
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from thermogym.identification.strut_study import (
+from thermogym.models.linear import FOPTDModel
+from thermogym.models.strut import StrutModel
+from thermogym.recording import Recording
+from thermogym.rigs import get_rig, to_recording
+from thermogym.studies.strut import (
     OUTPUTS,
     RATIOS,
     StrutStudyConfig,
@@ -14,10 +18,6 @@ from thermogym.identification.strut_study import (
     run_strut_study,
     strut_problem,
 )
-from thermogym.models.linear import FOPTDModel
-from thermogym.models.strut import StrutModel
-from thermogym.recording import Recording
-from thermogym.rigs import get_rig, to_recording
 
 
 def test_foptd_set_recovers_known_gains_time_constants_and_delays():

@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env
 
 from thermogym.envs.virtual_sensor import VirtualSensorObservation
 from thermogym.errors import ConfigError, UnknownNameError
-from thermogym.models.estimation import VirtualSensor
+from thermogym.estimation import VirtualSensor
 from thermogym.models.linear import StateSpaceModel
 
 DT = 10.0

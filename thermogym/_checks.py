@@ -61,8 +61,16 @@ def show(value: Any, unit: str = "") -> str:
     return f"{text} {unit}" if unit else text
 
 
-def _number(name: str, value: Any, unit: str, expected: str, error: type[ThermogymError]) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real | str | np.generic):
+def _number(
+    name: str,
+    value: Any,
+    unit: str,
+    expected: str,
+    error: type[ThermogymError],
+    text: bool = True,
+) -> float:
+    kinds = (numbers.Real, str, np.generic) if text else (numbers.Real,)
+    if isinstance(value, bool | np.bool_) or not isinstance(value, kinds):
         raise error(f"{name} = {show(value, unit)}, expected {expected}")
     try:
         x = float(value)
@@ -74,16 +82,28 @@ def _number(name: str, value: Any, unit: str, expected: str, error: type[Thermog
 
 
 def finite(
-    name: str, value: Any, *, unit: str = "", error: type[ThermogymError] = ParameterError
+    name: str,
+    value: Any,
+    *,
+    unit: str = "",
+    error: type[ThermogymError] = ParameterError,
+    text: bool = True,
 ) -> float:
     """``value`` as a finite float, or ``error`` naming it.
+
+    ``text=False`` refuses a number written as text (keyword arguments of the
+    Python API, where ``"2.5"`` is a mistake rather than a command-line value).
 
     Examples
     --------
     >>> finite("gain", "2.5")
     2.5
+    >>> finite("gain", "2.5", text=False)
+    Traceback (most recent call last):
+    ...
+    thermogym.errors.ParameterError: gain = '2.5', expected a finite number
     """
-    return _number(name, value, unit, "a finite number", error)
+    return _number(name, value, unit, "a finite number", error, text)
 
 
 def in_range(
@@ -96,6 +116,7 @@ def in_range(
     hi_open: bool = False,
     unit: str = "",
     error: type[ThermogymError] = ParameterError,
+    text: bool = True,
 ) -> float:
     """``value`` as a finite float inside ``[lo, hi]`` (ends open on request).
 
@@ -113,6 +134,9 @@ def in_range(
         Unit shown after the value and the bounds.
     error : type
         Exception class to raise (a :class:`~thermogym.errors.ThermogymError`).
+    text : bool
+        Accept a number written as text (``"5"``); ``False`` for keyword
+        arguments of the Python API.
 
     Examples
     --------
@@ -136,14 +160,19 @@ def in_range(
             f"a finite number in {'(' if lo_open else '['}{lo_s}, {hi_s}{')' if hi_open else ']'}"
             f"{u}"
         )
-    x = _number(name, value, unit, expected, error)
+    x = _number(name, value, unit, expected, error, text)
     if x < lo or x > hi or (lo_open and x == lo) or (hi_open and x == hi):
         raise error(f"{name} = {show(value, unit)}, expected {expected}")
     return x
 
 
 def positive(
-    name: str, value: Any, *, unit: str = "", error: type[ThermogymError] = ParameterError
+    name: str,
+    value: Any,
+    *,
+    unit: str = "",
+    error: type[ThermogymError] = ParameterError,
+    text: bool = True,
 ) -> float:
     """``value`` as a finite float > 0.
 
@@ -152,11 +181,16 @@ def positive(
     >>> positive("dt", 0.5, unit="s")
     0.5
     """
-    return in_range(name, value, 0.0, lo_open=True, unit=unit, error=error)
+    return in_range(name, value, 0.0, lo_open=True, unit=unit, error=error, text=text)
 
 
 def nonnegative(
-    name: str, value: Any, *, unit: str = "", error: type[ThermogymError] = ParameterError
+    name: str,
+    value: Any,
+    *,
+    unit: str = "",
+    error: type[ThermogymError] = ParameterError,
+    text: bool = True,
 ) -> float:
     """``value`` as a finite float >= 0.
 
@@ -165,10 +199,12 @@ def nonnegative(
     >>> nonnegative("noise", 0)
     0.0
     """
-    return in_range(name, value, 0.0, unit=unit, error=error)
+    return in_range(name, value, 0.0, unit=unit, error=error, text=text)
 
 
-def probability(name: str, value: Any, *, error: type[ThermogymError] = ParameterError) -> float:
+def probability(
+    name: str, value: Any, *, error: type[ThermogymError] = ParameterError, text: bool = True
+) -> float:
     """A significance level or fraction strictly between 0 and 1.
 
     Examples
@@ -176,7 +212,7 @@ def probability(name: str, value: Any, *, error: type[ThermogymError] = Paramete
     >>> probability("alpha", 0.01)
     0.01
     """
-    return in_range(name, value, 0.0, 1.0, lo_open=True, hi_open=True, error=error)
+    return in_range(name, value, 0.0, 1.0, lo_open=True, hi_open=True, error=error, text=text)
 
 
 def integer(

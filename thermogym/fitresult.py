@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 import thermogym
+from thermogym._checks import nonnegative
 from thermogym._fileio import atomic_write_text, to_jsonable
 from thermogym.errors import ConfigError, ParameterError
 from thermogym.recording import Recording
@@ -548,9 +549,22 @@ class FitResult:
         ParameterError
             A parameter name is unknown to the model.
         """
+        # the registry loads every plant model (~0.5 s): only when one is built
         from thermogym.models.registry import get_model
 
-        model = get_model(self.model, **self.model_config)
+        config = dict(self.model_config)
+        op = self.settings.get("operating_point")
+        if (
+            self.model == "ss"
+            and "u_op" not in config
+            and "y_op" not in config
+            and isinstance(op, Mapping)
+        ):
+            # state-space fits made before the model carried its operating point kept it
+            # in the settings only: apply it here, so every simulation path honours it
+            config["u_op"] = dict(op.get("inputs") or {})
+            config["y_op"] = dict(op.get("outputs") or {})
+        model = get_model(self.model, **config)
         self._check_model(model, check_version=check_version, check_name=False)
         return model
 
@@ -638,8 +652,7 @@ class FitResult:
             raise ParameterError(f"n is {n!r}, expected a positive number of parameter sets")
         if method not in _SAMPLE_METHODS:
             raise ConfigError(f"method is {method!r}, expected one of {_SAMPLE_METHODS}")
-        if not (math.isfinite(scale) and scale >= 0):
-            raise ParameterError(f"scale is {scale!r}, expected a finite number >= 0")
+        nonnegative("scale", scale, text=False)
         if isinstance(rng, int | np.integer) and not isinstance(rng, bool):
             rng = np.random.default_rng(int(rng))
         if not isinstance(rng, np.random.Generator):

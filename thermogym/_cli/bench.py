@@ -136,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
         title=args.title,
         params=args.params,
     )
-    from thermogym.controllers.report import kpi_axes
+    from thermogym.controllers.tables import kpi_axes
 
     axes = list(kpi_axes(list(res.table.columns)).values())
     mean = res.table.groupby(["scenario", "plant", "controller"], sort=False)[axes].mean()

@@ -1,6 +1,6 @@
 """``thermogym virtual-sensor --fit fit.json DATA --out estimates.csv``: estimate hidden signals.
 
-Runs the Kalman virtual sensor of :mod:`thermogym.models.estimation` on a
+Runs the Kalman virtual sensor of :mod:`thermogym.estimation` on a
 recording: the identified state-space model of ``--fit`` (``ss``, e.g. from
 ``thermogym identify n4sid``), the exogenous channels and the ``--measured``
 outputs read from DATA, the other outputs estimated. Writes a recording with
@@ -119,9 +119,9 @@ def _at_rate(sensor, rec):  # type: ignore[no-untyped-def]
 
 def run(args: argparse.Namespace) -> int:
     """Estimate, write, report."""
+    from thermogym.estimation import consistency
     from thermogym.firmware.export import sensor_from_fit
     from thermogym.identification.metrics import nrmse, rmse
-    from thermogym.models.estimation import consistency
     from thermogym.recording import Recording, read_recording, write_recording
 
     sensor, fit = sensor_from_fit(
@@ -190,7 +190,7 @@ def run(args: argparse.Namespace) -> int:
             )
         ok = np.isfinite(Y).all(axis=1)
         if ok.sum() > 2:
-            from thermogym.models.estimation import normalized_error_squared
+            from thermogym.estimation import normalized_error_squared
 
             # the recorded hidden signals carry sensor noise: add it to the estimate's covariance
             cov = est.cov[:, idx][:, :, idx] + np.eye(len(idx)) * args.measurement_std**2

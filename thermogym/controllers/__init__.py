@@ -57,7 +57,6 @@ from thermogym.controllers.harness import (
     EpisodeSpec,
     run_benchmark,
     run_episode,
-    sim_to_real_gap,
 )
 from thermogym.controllers.linmodel import LinearPlant, linear_plant
 from thermogym.controllers.mpc import MPC, PreviewData, SchedulePreview
@@ -73,6 +72,7 @@ from thermogym.controllers.pwm import PWM, PWM_PERIODS
 from thermogym.controllers.rl import RLConfig, RLController, ScaledObservation, train
 from thermogym.controllers.scenarios import SCENARIOS, Scenario, get_scenario
 from thermogym.controllers.schedule import OptimumStart
+from thermogym.controllers.tables import sim_to_real_gap
 
 __all__ = [
     "CONTROLLER_GROUPS",

@@ -51,6 +51,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import in_range, positive
 from thermogym.errors import ConfigError, ShapeError, SimulationError, UnknownNameError
 
 __all__ = [
@@ -316,8 +317,7 @@ def env_info(env: Any, *, obs_names: Sequence[str] | None = None) -> EnvInfo:
 
 def whole_periods(who: str, name: str, seconds: float, dt: float) -> int:
     """``seconds / dt`` as a whole number >= 1, or a :class:`ConfigError` naming it."""
-    if not (isinstance(seconds, int | float) and math.isfinite(seconds) and seconds > 0):
-        raise ConfigError(f"{who}: {name} is {seconds!r}; expected a positive time in seconds")
+    seconds = positive(f"{who}: {name}", seconds, unit="s", error=ConfigError, text=False)
     n = seconds / dt
     k = round(n)
     if k < 1 or abs(n - k) > 1e-9 * max(1.0, n):
@@ -328,12 +328,8 @@ def whole_periods(who: str, name: str, seconds: float, dt: float) -> int:
 
 
 def _num(who: str, name: str, v: Any, *, lo: float = -math.inf, hi: float = math.inf) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float | np.integer | np.floating):
-        raise ConfigError(f"{who}: {name} is {v!r:.60}; expected a number")
-    f = float(v)
-    if not (math.isfinite(f) and lo <= f <= hi):
-        raise ConfigError(f"{who}: {name} is {v!r}; expected a finite number in [{lo}, {hi}]")
-    return f
+    """``v`` as a finite float in ``[lo, hi]``, or a :class:`ConfigError` naming ``who``."""
+    return in_range(f"{who}: {name}", v, lo, hi, error=ConfigError, text=False)
 
 
 class Controller(abc.ABC):

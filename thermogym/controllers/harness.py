@@ -37,7 +37,8 @@ Sim-to-real
 With ``plants=("model", "rig")`` every episode runs on the identified model
 and on the virtual rig (the true plant, its sensors, an actuator specimen):
 controllers tuned on identified models meet the plant they were not tuned
-on, and the report shows the gap (:func:`sim_to_real_gap`).
+on, and the report shows the gap
+(:func:`~thermogym.controllers.tables.sim_to_real_gap`).
 """
 
 from __future__ import annotations
@@ -45,18 +46,27 @@ from __future__ import annotations
 import json
 import logging
 import math
+import multiprocessing as mp
 import os
 import sys
 import time
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
+import pandas as pd
+from tqdm.auto import tqdm
 
+import thermogym.envs  # noqa: F401 - registers the environments
 from thermogym import __version__
+from thermogym.controllers.presets import build_controller, expand_controllers
+from thermogym.controllers.report import write_report
 from thermogym.controllers.scenarios import Scenario, get_scenario
+from thermogym.controllers.tables import KEY_COLUMNS
 from thermogym.errors import ConfigError
 
 __all__ = [
@@ -65,14 +75,11 @@ __all__ = [
     "EpisodeSpec",
     "run_benchmark",
     "run_episode",
-    "sim_to_real_gap",
 ]
 
 log = logging.getLogger("thermogym.controllers")
 
 BACKENDS = ("local", "ray", "serial")
-#: Columns that identify an episode (the rest are results).
-KEY_COLUMNS = ("env_id", "scenario", "controller", "plant", "seed")
 
 
 @dataclass(frozen=True)
@@ -180,11 +187,6 @@ def run_episode(spec: EpisodeSpec) -> dict[str, Any]:
     >>> out["row"]["controller"], out["row"]["steps"], out["row"]["switch_cycles"] > 10
     ('onoff', 1440, True)
     """
-    import gymnasium as gym
-
-    import thermogym.envs  # noqa: F401 - registers the environments
-    from thermogym.controllers.presets import build_controller
-
     try:  # deterministic, and no oversubscription of the cores by torch / BLAS
         import torch
 
@@ -341,16 +343,11 @@ def _specs(
 
 
 def _progress(total: int, show: bool | None) -> Any:
-    from tqdm.auto import tqdm
-
     disable = (not sys.stderr.isatty()) if show is None else not show
     return tqdm(total=total, desc="episodes", unit="ep", disable=disable, leave=False)
 
 
 def _run_local(specs: list[EpisodeSpec], workers: int, bar: Any) -> list[dict[str, Any]]:
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
     results: list[dict[str, Any] | None] = [None] * len(specs)
     ctx = mp.get_context("spawn")
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
@@ -464,10 +461,6 @@ def run_benchmark(
     >>> bool((res.table["stroke_rmse_mm"] > 0).all())
     True
     """
-    import pandas as pd
-
-    from thermogym.controllers.presets import expand_controllers
-
     if backend not in BACKENDS:
         raise ConfigError(f"backend is {backend!r}; expected one of {BACKENDS}")
     if record not in ("first", "all", "none"):
@@ -523,19 +516,12 @@ def run_benchmark(
     res = BenchmarkResult(table, trajs, specs, backend, n_workers, seconds)
     log.info("benchmark of %d episodes in %.1f s (%s)", len(specs), seconds, backend)
     if out is not None and report:
-        from thermogym.controllers.report import write_report
-
         res.files = write_report(res, Path(out), title=title)
     return res
 
 
 def _check_buildable(env_id: str, specs: list[EpisodeSpec]) -> None:
     """Build every (scenario, controller, plant) once before the grid: fail early."""
-    import gymnasium as gym
-
-    import thermogym.envs  # noqa: F401
-    from thermogym.controllers.presets import build_controller
-
     seen: set[tuple[str, str, str]] = set()
     for s in specs:
         key = (s.scenario, s.controller, s.plant)
@@ -546,45 +532,6 @@ def _check_buildable(env_id: str, specs: list[EpisodeSpec]) -> None:
         env = gym.make(env_id, **kw)
         build_controller(s.controller, env, env_kwargs=kw, options=s.options)
         env.close()
-
-
-def sim_to_real_gap(table: Any, kpis: Sequence[str] | None = None) -> Any:
-    """Mean KPI on the rig minus the mean on the identified model, per scenario and controller.
-
-    Parameters
-    ----------
-    table : pandas.DataFrame
-        A benchmark table with both plants.
-    kpis : sequence of str, optional
-        Columns (default: every numeric KPI column).
-
-    Returns
-    -------
-    pandas.DataFrame
-        Index (scenario, controller); columns ``<kpi>_model``, ``<kpi>_rig``,
-        ``<kpi>_gap``. Empty when the table lacks either plant.
-    """
-    import pandas as pd
-
-    if not {"model", "rig"} <= set(table["plant"]):
-        return pd.DataFrame()
-    num = [c for c in (kpis or table.select_dtypes("number").columns) if c not in KEY_COLUMNS]
-    num = [c for c in num if c not in ("scenario_version", "steps", "wall_s")]
-    m = table.groupby(["scenario", "controller", "plant"], sort=False)[num].mean()
-    rows = []
-    for (scen, ctrl), grp in m.groupby(level=[0, 1], sort=False):
-        plants = grp.index.get_level_values(2)
-        if "model" not in plants or "rig" not in plants:
-            continue
-        a = grp.xs("model", level=2).iloc[0]
-        b = grp.xs("rig", level=2).iloc[0]
-        row: dict[str, Any] = {"scenario": scen, "controller": ctrl}
-        for c in num:
-            row[f"{c}_model"] = a[c]
-            row[f"{c}_rig"] = b[c]
-            row[f"{c}_gap"] = b[c] - a[c]
-        rows.append(row)
-    return pd.DataFrame(rows).set_index(["scenario", "controller"]) if rows else pd.DataFrame()
 
 
 def episode_specs_dict(res: BenchmarkResult) -> list[dict[str, Any]]:

@@ -53,12 +53,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import osqp
 import scipy.linalg
 import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from thermogym.controllers.base import Controller, EnvInfo, Loop, _num
 from thermogym.controllers.linmodel import LinearPlant, linear_plant
+from thermogym.envs.axt211_room import RoomConfig
 from thermogym.errors import ConfigError, ParameterError
 
 __all__ = ["MPC", "PreviewData", "SchedulePreview"]
@@ -145,8 +147,6 @@ class SchedulePreview:
     @classmethod
     def from_env_kwargs(cls, kwargs: Mapping[str, Any], **extra: Any) -> SchedulePreview:
         """Build from ``AXT211Room`` keyword arguments (``start_day`` required)."""
-        from thermogym.envs.axt211_room import RoomConfig
-
         if kwargs.get("start_day") is None:
             raise ConfigError(
                 "SchedulePreview needs the episode's start_day (the environment draws it when "
@@ -395,7 +395,6 @@ class MPC(Controller):
             "warm_starting": True,
         }
         settings.update(self.solver_settings)
-        import osqp
 
         self._prob = osqp.OSQP()
         l0, u0 = self._bounds(np.zeros(N), None, None, 0.0)

@@ -21,7 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from thermogym.controllers.report import MAIN_KPIS, kpi_axes, pareto_front
+from thermogym.controllers.tables import MAIN_KPIS, kpi_axes, pareto_front
 from thermogym.plotting import save_figure
 
 __all__ = [

@@ -2,7 +2,7 @@
 
 Each preset is a controller with settings derived from the identified linear
 models shipped in ``thermogym/controllers/data/`` (made by
-``data/make_models.py`` on the *identified model* environment) — never from
+``scripts/make_models.py`` on the *identified model* environment) — never from
 the plant it is evaluated on:
 
 =====================  ========================================================================
@@ -53,12 +53,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym.controllers.base import Controller, Decentralized, EnvInfo, Loop
+from thermogym.controllers.base import Controller, Decentralized, EnvInfo, Loop, env_info
 from thermogym.controllers.feedforward import LinearFeedforward, StaticMap
 from thermogym.controllers.mpc import MPC, SchedulePreview
 from thermogym.controllers.onoff import OnOff
 from thermogym.controllers.pid import PID, simc
 from thermogym.controllers.pwm import PWM, PWM_PERIODS
+from thermogym.controllers.rl import RLController
 from thermogym.controllers.schedule import OptimumStart
 from thermogym.errors import ConfigError, UnknownNameError
 from thermogym.fitresult import FitResult, load_fit
@@ -108,9 +109,7 @@ def model_fit(name: str) -> FitResult:
     """A shipped FitResult of ``controllers/data/`` (read once)."""
     p = data_path(name)
     if not p.exists():
-        raise ConfigError(
-            f"the controller model {p} is missing; run thermogym/controllers/data/make_models.py"
-        )
+        raise ConfigError(f"the controller model {p} is missing; run scripts/make_models.py")
     return load_fit(p)
 
 
@@ -367,8 +366,6 @@ def build_controller(
     >>> type(ctrl).__name__, ctrl.period, type(ctrl.inner).__name__
     ('PWM', 10.0, 'PID')
     """
-    from thermogym.controllers.base import env_info
-
     if name not in CONTROLLER_NAMES:
         raise UnknownNameError(
             f"no controller preset {name!r}; presets are {list(CONTROLLER_NAMES)}"
@@ -379,8 +376,6 @@ def build_controller(
     if name == "random":
         return RandomController().bind(env)
     if name in ("ppo", "sac", "dqn"):
-        from thermogym.controllers.rl import RLController
-
         path = opts.get("policy")
         if path is None:
             path = _policy_path(name, info.name)

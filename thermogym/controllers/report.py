@@ -15,6 +15,9 @@
     Trajectories of the representative episodes, KPI bars and the
     energy-lifetime-accuracy Pareto view (:mod:`thermogym.controllers.plots`).
 
+The KPI axes, the Pareto front and the sim-to-real gap are computed by
+:mod:`thermogym.controllers.tables`.
+
 Files are written atomically (:mod:`thermogym._fileio`): a failed report
 never leaves a half-written file in place of a good one.
 """
@@ -22,108 +25,23 @@ never leaves a half-written file in place of a good one.
 from __future__ import annotations
 
 import json
-import math
 import os
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+import pandas as pd
 
 from thermogym import __version__
 from thermogym._fileio import atomic_write, atomic_write_text
-
-__all__ = [
-    "AXES",
-    "format_mean_std",
-    "kpi_axes",
-    "pareto_front",
-    "summary_markdown",
-    "write_report",
-]
-
-#: KPIs of the energy / lifetime / accuracy axes, in order of preference.
-AXES: dict[str, tuple[str, ...]] = {
-    "energy": ("heat_delivered_kWh", "actuator_energy_Wh"),
-    "lifetime": ("wax_thermal_cycles", "switch_cycles", "stroke_travel_mm"),
-    "accuracy": (
-        "discomfort_Kh",
-        "stroke_rmse_mm",
-        "temperature_rmse_K",
-        "bearing_over_limit_Kh",
-        "elongation_error_um",
-    ),
-}
-#: KPIs shown in the summary tables and bars (those present), in this order.
-MAIN_KPIS = (
-    "discomfort_Kh",
-    "stroke_rmse_mm",
-    "stroke_iae_mm_s",
-    "temperature_rmse_K",
-    "heat_delivered_kWh",
-    "actuator_energy_Wh",
-    "switch_cycles",
-    "wax_thermal_cycles",
-    "wax_damage",
-    "stroke_travel_mm",
-    "stroke_reversals",
-    "time_above_limit_h",
+from thermogym.controllers.tables import (
+    MAIN_KPIS,
+    format_mean_std,
+    kpi_axes,
+    pareto_front,
+    sim_to_real_gap,
 )
 
-
-def kpi_axes(columns: Sequence[str]) -> dict[str, str]:
-    """The KPI used for each of energy, lifetime and accuracy among ``columns``.
-
-    Examples
-    --------
-    >>> kpi_axes(["actuator_energy_Wh", "switch_cycles", "wax_thermal_cycles", "stroke_rmse_mm"])
-    {'energy': 'actuator_energy_Wh', 'lifetime': 'wax_thermal_cycles', 'accuracy': 'stroke_rmse_mm'}
-    """
-    out = {}
-    for axis, names in AXES.items():
-        for n in names:
-            if n in columns:
-                out[axis] = n
-                break
-    return out
-
-
-def pareto_front(points: np.ndarray) -> np.ndarray:
-    """Mask of the non-dominated rows of ``points`` (every column minimised).
-
-    Examples
-    --------
-    >>> pareto_front(np.array([[1.0, 2.0], [2.0, 1.0], [2.0, 2.0]])).tolist()
-    [True, True, False]
-    """
-    p = np.asarray(points, dtype=float)
-    keep = np.ones(len(p), dtype=bool)
-    for i in range(len(p)):
-        others = np.delete(p, i, axis=0)
-        dominated = np.any(np.all(others <= p[i], axis=1) & np.any(others < p[i], axis=1))
-        keep[i] = not dominated
-    return keep
-
-
-def format_mean_std(mean: float, std: float, n: int) -> str:
-    """``mean ± std`` with 3-4 significant digits (``std`` omitted for one seed).
-
-    Examples
-    --------
-    >>> format_mean_std(12.345, 0.678, 3)
-    '12.35 ± 0.678'
-    >>> format_mean_std(5.0, float("nan"), 1)
-    '5'
-    """
-
-    def f(v: float) -> str:
-        if not math.isfinite(v):
-            return "–"
-        return f"{v:.4g}"
-
-    if n <= 1 or not math.isfinite(std):
-        return f(mean)
-    return f"{f(mean)} ± {std:.3g}"
+__all__ = ["summary_markdown", "write_report"]
 
 
 def _md_table(header: list[str], rows: list[list[str]]) -> str:
@@ -136,8 +54,6 @@ def summary_markdown(
     table: Any, *, title: str | None = None, figures: dict[str, list[str]] | None = None
 ) -> str:
     """The Markdown summary of a benchmark table (see the module docstring)."""
-    from thermogym.controllers.harness import sim_to_real_gap
-
     t = table
     env_ids = sorted(set(t["env_id"]))
     lines = [f"# {title or 'Controller benchmark: ' + ', '.join(env_ids)}", ""]
@@ -228,8 +144,6 @@ def _write_table(table: Any, path_csv: Path, path_parquet: Path) -> None:
 
 
 def _trajectories_frame(res: Any) -> Any:
-    import pandas as pd
-
     frames = []
     for (scen, ctrl, plant, seed), tr in res.trajectories.items():
         df = pd.DataFrame(tr)
@@ -274,7 +188,7 @@ def write_report(
         files["trajectories.parquet"] = out / "trajectories.parquet"
     figs: dict[str, list[str]] = {}
     if figures:
-        from thermogym.controllers import plots
+        from thermogym.controllers import plots  # matplotlib (~1 s) only when figures are drawn
 
         made = plots.benchmark_figures(res, out / "figures")
         for key, paths in made.items():

@@ -53,9 +53,11 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
+import thermogym.envs  # noqa: F401 - registers the environments
 from thermogym import __version__
 from thermogym._fileio import atomic_write_text
-from thermogym.controllers.base import Controller, EnvInfo, env_info
+from thermogym.controllers.base import Controller, EnvInfo, Loop, env_info
+from thermogym.controllers.pwm import PWM
 from thermogym.errors import ConfigError, UnknownNameError
 
 __all__ = [
@@ -187,8 +189,6 @@ class TrainResult:
 
 
 def _make_env(env_id: str, kwargs: Mapping[str, Any]) -> gym.Env[Any, Any]:
-    import thermogym.envs  # noqa: F401 - registers the environments
-
     return ScaledObservation(gym.make(env_id, **dict(kwargs)))
 
 
@@ -218,8 +218,6 @@ def evaluate(
     dict
         ``return_mean``, ``return_std``, ``returns``, ``kpis`` (mean per KPI).
     """
-    import thermogym.envs  # noqa: F401
-
     rets, kpis = [], []
     for s in seeds:
         env = gym.make(env_id, **dict(env_kwargs))
@@ -282,8 +280,6 @@ def train(config: RLConfig) -> TrainResult:
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
     from stable_baselines3.common.monitor import Monitor
     from stable_baselines3.common.vec_env import DummyVecEnv
-
-    import thermogym.envs  # noqa: F401 - registers the environments
 
     cfg = config
     torch.set_num_threads(max(1, int(cfg.torch_threads)))
@@ -445,8 +441,6 @@ class RLController(Controller):
         return False
 
     def _default_loop(self, info: EnvInfo) -> Any:
-        from thermogym.controllers.base import Loop
-
         return Loop("(policy)", 0.0, 0)
 
     def _bind(self, info: EnvInfo) -> None:
@@ -510,8 +504,6 @@ class RLController(Controller):
         period; on an environment with a shorter control period the same is
         done by :class:`~thermogym.controllers.pwm.PWM`.
         """
-        from thermogym.controllers.pwm import PWM
-
         info = env_info(env)
         tc = float(self.meta["control_period_s"])
         if math.isclose(tc, info.dt) or self.meta.get("discrete"):

@@ -25,7 +25,7 @@ SCENARIO = "setpoint-steps"
 def stage_control(ctx: DemoContext, res: StageResult) -> None:
     """Run the grid, summarise its KPIs, keep the harness's figures."""
     from thermogym.controllers import run_benchmark
-    from thermogym.controllers.report import kpi_axes, pareto_front
+    from thermogym.controllers.tables import kpi_axes, pareto_front
 
     ctrls = ("onoff", "pid-high", "ppo") if ctx.quick else CONTROLLERS
     seeds = [ctx.seed] if ctx.quick else [ctx.seed, ctx.seed + 1]

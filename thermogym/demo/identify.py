@@ -52,7 +52,7 @@ def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> 
     from thermogym.identification.linear_plots import plot_order_cv
     from thermogym.identification.n4sid import n4sid
     from thermogym.identification.prepare import prepare
-    from thermogym.identification.spindle_study import OUTPUTS, PREPARE, SpindleData, table5
+    from thermogym.studies.spindle import OUTPUTS, PREPARE, SpindleData, table5
 
     t0 = time.perf_counter()
     runs: dict[tuple[int, int], Any] = {}
@@ -145,7 +145,7 @@ def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> 
 def _strut(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> None:
     from thermogym.identification.coordinator import run_identification
     from thermogym.identification.foptd import fit_foptd
-    from thermogym.identification.strut_study import (
+    from thermogym.studies.strut import (
         OUTPUTS,
         StrutStudyConfig,
         run_strut_study,

@@ -33,7 +33,7 @@ def stage_sensor(ctx: DemoContext, res: StageResult) -> None:
         run_simavr,
     )
     from thermogym.identification.metrics import nrmse, rmse
-    from thermogym.identification.spindle_study import INTERNAL, SURFACE, virtual_sensor_fit
+    from thermogym.studies.spindle import INTERNAL, SURFACE, virtual_sensor_fit
 
     ctx.need("spindle_data")
     data = ctx.products["spindle_data"]

@@ -34,6 +34,7 @@ import math
 import os
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import fields
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -45,6 +46,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
+from thermogym._checks import in_range
 from thermogym.envs._plant import ParamsLike, Plant, load_params, make_sampler
 from thermogym.errors import ConfigError, ShapeError, SimulationError
 
@@ -80,14 +82,8 @@ def check_number(
     hi: float = math.inf,
     lo_open: bool = False,
 ) -> float:
-    """Return ``value`` as a float, or raise :class:`ConfigError` naming it."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise ConfigError(f"{env}: {name} is {value!r:.60}; expected a number")
-    v = float(value)
-    if not math.isfinite(v) or v < lo or v > hi or (lo_open and v <= lo):
-        rng = f"({lo}, {hi}]" if lo_open else f"[{lo}, {hi}]"
-        raise ConfigError(f"{env}: {name} is {value!r}; expected a finite number in {rng}")
-    return v
+    """Return ``value`` as a float, or raise :class:`ConfigError` naming ``env`` and it."""
+    return in_range(f"{env}: {name}", value, lo, hi, lo_open=lo_open, error=ConfigError, text=False)
 
 
 def check_range(
@@ -409,7 +405,7 @@ class Engine:
 
 # ----------------------------------------------------------------- rendering
 def _render(env: Any, history: list[NDArray[np.float64]], mode: str) -> Any:
-    from thermogym.envs import envplots
+    from thermogym.envs import envplots  # matplotlib only when rendering
 
     e: Engine = env._e
     data = np.array(history) if history else np.zeros((0, len(e.sig_names)))
@@ -833,8 +829,6 @@ def build_config(cfg_cls: type, env: str, kwargs: Mapping[str, Any]) -> Any:
     TypeError
         An unknown keyword argument (named, with the accepted ones).
     """
-    from dataclasses import fields
-
     names = [f.name for f in fields(cfg_cls)]
     unknown = [k for k in kwargs if k not in names]
     if unknown:

@@ -120,7 +120,7 @@ from thermogym.envs._kernels import (
     tp_push,
 )
 from thermogym.envs._plant import ParamsLike, resolve_plant
-from thermogym.envs.kpis import miner_damage, tp_finish, tp_update_at
+from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
 from thermogym.errors import ConfigError
 from thermogym.models import axt211 as _ax
 from thermogym.models.axt211 import AXT211
@@ -578,6 +578,7 @@ class _ValveEngine(Engine):
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
         specimen = None
         if cfg.plant == "rig" and cfg.specimen_seed is not None:
+            # the rigs (~0.4 s) load only for plant='rig'
             from thermogym.rigs.axt211 import specimen_spread
 
             specimen = specimen_spread(np.random.default_rng(cfg.specimen_seed), n=1)[0]
@@ -699,7 +700,6 @@ class _ValveEngine(Engine):
         last = tp_finish(a[_A_TPT : _A_TPT + 4].copy())
         if not math.isnan(last):
             tps = np.append(tps, last)
-        from thermogym.envs.kpis import _rainflow_tp
 
         cycles = _rainflow_tp(tps, self.cfgv[_HT])
         return {

@@ -68,6 +68,7 @@ import numpy as np
 import rainflow
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import nonnegative, positive
 from thermogym.errors import ShapeError
 
 __all__ = [
@@ -116,9 +117,7 @@ def _series(x: ArrayLike, name: str) -> NDArray[np.float64]:
 
 
 def _dt(dt: float) -> float:
-    if not (np.isfinite(dt) and dt > 0):
-        raise ShapeError(f"dt is {dt!r}; expected a positive sample period in seconds")
-    return float(dt)
+    return positive("dt", dt, unit="s", error=ShapeError, text=False)
 
 
 def _pair(x: ArrayLike, ref: ArrayLike, a: str, b: str) -> tuple[NDArray, NDArray]:
@@ -295,9 +294,7 @@ def _turning_points(x: NDArray[np.float64], h: float) -> tuple[NDArray[np.float6
 
 
 def _hyst(h: float) -> float:
-    if not (np.isfinite(h) and h >= 0):
-        raise ShapeError(f"hysteresis is {h!r}; expected a finite value >= 0")
-    return float(h)
+    return nonnegative("hysteresis", h, error=ShapeError, text=False)
 
 
 def turning_points(x: ArrayLike, hysteresis: float) -> NDArray[np.float64]:
@@ -424,11 +421,8 @@ def miner_damage(
     >>> miner_damage([(50.0, 1.0), (25.0, 1.0)], n_ref=100.0, range_ref=50.0, exponent=2.0)
     0.0125
     """
-    if not (n_ref > 0 and range_ref > 0 and exponent > 0):
-        raise ShapeError(
-            f"damage model n_ref={n_ref!r}, range_ref={range_ref!r}, exponent={exponent!r}; "
-            "expected positive numbers"
-        )
+    for name, v in (("n_ref", n_ref), ("range_ref", range_ref), ("exponent", exponent)):
+        positive(f"damage model {name}", v, error=ShapeError, text=False)
     return float(sum(c * (r / range_ref) ** exponent for r, c in cycles) / n_ref)
 
 

@@ -8,12 +8,12 @@ heaters and two temperature sensors about 1 cm apart. Its model
 convection and radiation plus sensor lags, after the APMonitor course
 material) is the one in thermogym identified from *real* recordings: the
 package ships the FitResult ``thermogym/envs/data/tclab_fit.json`` made by
-``thermogym/envs/data/fit_tclab.py`` from the public recordings in
+``scripts/fit_tclab.py`` from the public recordings in
 :mod:`thermogym.datasets` (trained on some runs, validated on others); it is
 the default ``params``. The controller sets both heaters to make the two
 sensors follow their set-points — a small coupled MIMO problem.
 
-Identification (``thermogym/envs/data/fit_tclab.py``)
+Identification (``scripts/fit_tclab.py``)
 -----------------------------------------------------
 Trained on ``tclab_mimo_1s``, ``tclab_step`` and ``tclab_sine`` (two boards:
 shared thermal parameters, a heater-1 gain per board), residual standard

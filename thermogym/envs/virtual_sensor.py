@@ -18,9 +18,9 @@ name (``observation_names`` or the environment's ``obs_names``) or a callable
 ``(obs, info, action) -> float``. The estimator is any object with
 ``input_names``, ``measured_names``, ``output_names``, ``reset(u, z)`` and
 ``update(u_prev, u, z)`` returning the estimates —
-:class:`~thermogym.models.estimation.SteadyStateObserver` (from
+:class:`~thermogym.estimation.SteadyStateObserver` (from
 :meth:`VirtualSensor.step_observer`, use :meth:`VirtualSensor.at_period` to
-match the control period) or :class:`~thermogym.models.estimation.AXT211WaxUKF`.
+match the control period) or :class:`~thermogym.estimation.AXT211WaxUKF`.
 
 Info
 ----
@@ -36,7 +36,7 @@ Examples
 >>> import numpy as np
 >>> import thermogym.envs
 >>> from thermogym.firmware.reference import spindle_reference_model
->>> from thermogym.models.estimation import VirtualSensor
+>>> from thermogym.estimation import VirtualSensor
 >>> env = gym.make("thermogym/SpindleThermal-v0")
 >>> model = spindle_reference_model("1I7O", order=8, dt=1.0)
 >>> vs = VirtualSensor(model, measured=["T_front_outer_housing", "T_rear_outer_housing"],

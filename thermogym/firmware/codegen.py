@@ -1,7 +1,7 @@
 """The observer in the firmware's coordinates, its memory footprint and its C header.
 
 Pure functions (no file I/O): :func:`firmware_model` turns an
-:class:`~thermogym.models.estimation.ObserverMatrices` into the scaled,
+:class:`~thermogym.estimation.ObserverMatrices` into the scaled,
 offset form the C code runs, :func:`footprint` estimates flash and static RAM
 on the target from the dimensions, :func:`render_header` writes ``vs_model.h``.
 
@@ -34,8 +34,9 @@ import scipy.linalg
 import scipy.linalg.lapack
 from numpy.typing import NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import ConfigError, ParameterError
-from thermogym.models.estimation import ObserverMatrices
+from thermogym.estimation import ObserverMatrices
 
 __all__ = [
     "TARGETS",
@@ -284,7 +285,7 @@ def firmware_model(
     --------
     >>> import numpy as np
     >>> from thermogym.models.linear import StateSpaceModel
-    >>> from thermogym.models.estimation import VirtualSensor
+    >>> from thermogym.estimation import VirtualSensor
     >>> m = StateSpaceModel.from_matrices([[0.9]], [[0.1]], [[1.0]], dt=1.0,
     ...                                   inputs=["T_in"], outputs=["T_out"],
     ...                                   units={"T_in": "°C", "T_out": "°C"})
@@ -306,8 +307,7 @@ def firmware_model(
     if bad:
         raise ConfigError(f"scales given for unknown channel(s) {bad}; channels are {list(names)}")
     for k, v in scl.items():
-        if not (np.isfinite(v) and v > 0):
-            raise ConfigError(f"scale of {k!r} is {v!r}; expected a positive number")
+        positive(f"scale of {k!r}", v, error=ConfigError, text=False)
     unit = obs.units
     u_off = np.array([float(offs.get(s, _default_offset(unit.get(s, "1")))) for s in obs.exogenous])
     # operating point: the model's equilibrium at u_off (zero innovation there)

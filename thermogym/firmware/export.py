@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 
 import thermogym
 from thermogym.errors import ConfigError
+from thermogym.estimation import VirtualSensor
 from thermogym.firmware import rtd as rtd_ref
 from thermogym.firmware.codegen import (
     FirmwareModel,
@@ -50,7 +51,9 @@ from thermogym.firmware.codegen import (
     firmware_model,
     render_header,
 )
-from thermogym.models.estimation import VirtualSensor
+from thermogym.firmware.toolchain import avr_size_probe, avr_tools_available
+from thermogym.fitresult import FitResult, load_fit
+from thermogym.models.linear import StateSpaceModel
 
 __all__ = [
     "C_SOURCES",
@@ -135,9 +138,6 @@ def sensor_from_fit(fit: Any, **sensor_kwargs: Any) -> tuple[VirtualSensor, Any]
     sensor : VirtualSensor
     fit : FitResult
     """
-    from thermogym.fitresult import load_fit
-    from thermogym.models.linear import StateSpaceModel
-
     fr = load_fit(fit)
     model = fr.build_model()
     if not isinstance(model, StateSpaceModel):
@@ -396,8 +396,6 @@ def export(
     >>> rep.dims, (out / "vs_model.h").exists()
     ((8, 4, 0, 5), True)
     """
-    from thermogym.fitresult import FitResult, load_fit
-
     out = Path(out_dir)
     if sensor is None:
         if fit is None:
@@ -496,12 +494,8 @@ def export(
         }
         avr = None
         if check_avr is None:
-            from thermogym.firmware.toolchain import avr_tools_available
-
             check_avr = avr_tools_available()
         if check_avr:
-            from thermogym.firmware.toolchain import avr_size_probe
-
             avr = avr_size_probe(stage)
             excess_f = avr["flash_bytes"] - t.flash_available
             excess_r = avr["ram_bytes"] - t.ram_available

@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -56,8 +57,6 @@ def plot_virtual_sensor(
     -------
     Path
     """
-    import matplotlib.pyplot as plt
-
     t, xlabel = time_axis(np.asarray(time, dtype=float))
     names = list(estimates)
     rows = len(names) + (1 if measured else 0)

@@ -30,7 +30,7 @@ measured temperatures (they become boundary conditions of the remaining 12
 nodes), which is the exact physical meaning of those models. The ``-rise``
 variants drop the term ``C dT_amb/dt`` that a temperature relative to a
 changing ambient carries; on the rig's daily room cycle that costs about
-0.15 K (see :mod:`thermogym.models.estimation`).
+0.15 K (see :mod:`thermogym.estimation`).
 """
 
 from __future__ import annotations
@@ -41,8 +41,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError, ParameterError
+from thermogym.estimation import balanced_truncation
 from thermogym.models.base import ThetaLike
-from thermogym.models.estimation import balanced_truncation
 from thermogym.models.linear import StateSpaceModel, c2d_zoh
 from thermogym.models.spindle import NODES, SPINDLE_OUTPUTS, SpindleModel
 from thermogym.models.thermal_network import network_matrices

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import ParameterError
 
 __all__ = [
@@ -74,9 +75,7 @@ class AdcConfig:
         if not 2 <= self.bits <= 31:
             raise ParameterError(f"bits is {self.bits!r}; expected 2..31")
         for name in ("gain", "r_ref", "r0"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise ParameterError(f"{name} is {v!r}; expected a positive number")
+            positive(name, getattr(self, name), text=False)
 
 
 def temperature_to_resistance(t_degc: ArrayLike, r0: float = 1000.0) -> NDArray[np.float64]:

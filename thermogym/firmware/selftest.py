@@ -34,9 +34,11 @@ from typing import Any
 import numpy as np
 
 from thermogym.errors import ConfigError, ThermogymError
-from thermogym.firmware.export import ExportReport, export
+from thermogym.estimation import VirtualSensor
+from thermogym.firmware.export import ExportReport, export, sensor_from_fit
 from thermogym.firmware.reference import random_stable_model, spindle_reference_model
-from thermogym.models.estimation import VirtualSensor
+from thermogym.fitresult import FitResult
+from thermogym.rigs import get_rig
 
 __all__ = ["CASES", "case_sensor", "main", "rig_day", "run_case"]
 
@@ -67,8 +69,6 @@ def rig_day(
         Make a few samples invalid (NaN speed at 2 min, 350 °C front surface at
         3 min), as a disconnected sensor would.
     """
-    from thermogym.rigs import get_rig
-
     run = get_rig("spindle").run("validation", seed=seed, raw=False, speeds=[speed])[0]
     cols = {k: np.array(v, dtype=float) for k, v in run.columns.items()}
     cols["time"] = np.array(run.time, dtype=float)
@@ -87,9 +87,6 @@ def case_sensor(
     case: str, order: int, *, fit: Any = None, dt: float = 1.0
 ) -> tuple[VirtualSensor, Any, bool]:
     """The sensor of a self-test case (and the FitResult it came from, if any)."""
-    from thermogym.firmware.export import sensor_from_fit
-    from thermogym.fitresult import FitResult
-
     try:
         variant, kwargs, relative = CASES[case]
     except KeyError:

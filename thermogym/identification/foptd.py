@@ -52,6 +52,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.optimize import minimize_scalar
 from scipy.signal import lfilter
 
 from thermogym.errors import ConfigError, IdentificationError
@@ -67,10 +68,19 @@ from thermogym.identification.linear_fit import (
 from thermogym.models.linear import FOPTDModel, discrete_to_foptd
 from thermogym.recording import Recording
 
-__all__ = ["CRITERIA", "FOPTDResult", "OutputFit", "fit_foptd", "fit_foptd_arrays"]
+__all__ = [
+    "CRITERIA",
+    "FOPTD_OPERATING_POINTS",
+    "FOPTDResult",
+    "OutputFit",
+    "fit_foptd",
+    "fit_foptd_arrays",
+]
 
 #: Delay-selection criteria.
 CRITERIA: tuple[str, ...] = ("simulation", "equation")
+#: Operating-point modes of :func:`fit_foptd`: the shared ones and "estimate" (the default).
+FOPTD_OPERATING_POINTS: tuple[str, ...] = ("estimate", *OPERATING_POINTS)
 
 
 @dataclass
@@ -229,8 +239,6 @@ def _stable_fit(
     record does not determine the gain (the output integrates, or is so far
     from settling that only ``K/T`` shows): None.
     """
-    from scipy.optimize import minimize_scalar
-
     m = d.size
     y_all = np.concatenate(ys)
     n_max = max(u.shape[0] for u in us)
@@ -302,6 +310,252 @@ def _fit_output(
         except np.linalg.LinAlgError:
             pass
     return OutputFit(float(th[0]), th[1:].copy(), d, float(loss), profile, cov)
+
+
+# ------------------------------------------------ output error with offset and initial lag
+# operating_point_mode="estimate": no sample is taken as rest. For a pole a and delays d
+# the simulated output is linear in the remaining unknowns,
+#     y[k] = c + Σ_i b_i x_i[k] + z_e a^k,   x_i[k] = a x_i[k−1] + (u_i[k−1−d_i] − u_op_i)
+# (x_i from zero, inputs held at their first sample before t = 0; c the output at rest at
+# u_op; z_e the initial lag of experiment e), so c, b and z_e follow by linear least
+# squares and only a is searched (a bounded scalar search on ln T). Two starts are fitted:
+# "steady" ties each z_e to the steady state of the first input, z_e = Σ_i b_i u_i[0]/(1−a)
+# (a recording that starts settled; c still fitted, so no single sample is taken as the
+# rest level), "free" fits z_e (a recording that starts mid-transient). The free start is
+# kept when it lowers the BIC: an input step right at the start has the same shape as an
+# initial lag, and there the free start would trade the gain against z_e. The delays are
+# picked with the pole of the equation error of (9) with a constant term; the five best
+# delay candidates are then refined by the search on the pole.
+def _oe_columns(
+    us: list[NDArray[np.float64]], d: NDArray[np.int64], a: float, free: bool
+) -> NDArray[np.float64]:
+    """Design matrix ``[x_1 … x_m | 1 | a^k of experiment e …]`` of all experiments."""
+    m, n_exp = d.size, len(us)
+    rows = sum(u.shape[0] for u in us)
+    X = np.zeros((rows, m + 1 + (n_exp if free else 0)))
+    r0 = 0
+    for e, u in enumerate(us):
+        n = u.shape[0]
+        decay = a ** np.arange(n, dtype=float)
+        for i in range(m):
+            X[r0 : r0 + n, i] = lfilter([0.0, 1.0], [1.0, -a], _shift(u[:, i], int(d[i])))
+            if not free:  # the lag starts settled at u[0]: z = b u[0] / (1 − a)
+                X[r0 : r0 + n, i] += decay * (u[0, i] / (1.0 - a))
+        X[r0 : r0 + n, m] = 1.0
+        if free:
+            X[r0 : r0 + n, m + 1 + e] = decay
+        r0 += n
+    return X
+
+
+def _oe_solve(
+    us: list[NDArray[np.float64]],
+    y: NDArray[np.float64],
+    d: NDArray[np.int64],
+    a: float,
+    free: bool,
+) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
+    """Mean squared output error, ``[b…, c, z_e…]`` and the design matrix at pole ``a``."""
+    X = _oe_columns(us, d, a, free)
+    # normal equations of the scaled columns (a handful of unknowns, many rows)
+    G = X.T @ X
+    scale = np.sqrt(np.maximum(np.diag(G), 1e-300))
+    Gs = G / np.outer(scale, scale)
+    th = (np.linalg.pinv(Gs, rcond=1e-12, hermitian=True) @ ((X.T @ y) / scale)) / scale
+    r = y - X @ th
+    return float(r @ r) / y.size, th, X
+
+
+def _oe_search(
+    us: list[NDArray[np.float64]], y: NDArray[np.float64], d: NDArray[np.int64], free: bool
+) -> tuple[float, float, float]:
+    """Pole of the best output-error fit: ``(a, mse, curvature of the rss in ln T)``."""
+    from scipy.optimize import minimize_scalar
+
+    n_max = max(u.shape[0] for u in us)
+    lo, hi = np.log(0.1), np.log(10.0 * n_max)
+
+    def loss(lnT: float) -> float:
+        return _oe_solve(us, y, d, float(np.exp(-np.exp(-lnT))), free)[0]
+
+    res = minimize_scalar(loss, bounds=(lo, hi), method="bounded", options={"xatol": 1e-5})
+    x = float(res.x)
+    if not np.isfinite(res.fun):
+        return float("nan"), float("inf"), float("nan")
+    if x > hi - 1e-2 * (hi - lo):
+        # T at the bound: the record does not settle enough to tell the gain from the time
+        # constant; kept (its prediction on the record is right), flagged by a nan curvature
+        return float(np.exp(-np.exp(-hi))), float(loss(hi)), float("nan")
+    h = 1e-3
+    curv = (loss(x + h) - 2 * res.fun + loss(x - h)) / h**2 * y.size  # d²rss / d(ln T)²
+    return float(np.exp(-np.exp(-x))), float(res.fun), float(curv)
+
+
+def _equation_pole(
+    us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]], d: NDArray[np.int64]
+) -> tuple[float, float]:
+    """Pole and mean squared equation error of (9) with a constant term."""
+    m = d.size
+    G = np.zeros((m + 2, m + 2))
+    r = np.zeros(m + 2)
+    yy, n_rows = 0.0, 0
+    for u, y in zip(us, ys, strict=True):
+        # y[k] = a y[k−1] + Σ b_i u_i[k−1−d_i] + c                          (9) + constant
+        phi = np.column_stack(
+            [y[:-1], *(_shift(u[:, i], int(d[i]))[:-1] for i in range(m)), np.ones(y.size - 1)]
+        )
+        G += phi.T @ phi
+        r += phi.T @ y[1:]
+        yy += float(y[1:] @ y[1:])
+        n_rows += y.size - 1
+    scale = np.sqrt(np.maximum(np.diag(G), 1e-300))
+    try:
+        th = np.linalg.solve(G / np.outer(scale, scale), r / scale) / scale
+    except np.linalg.LinAlgError:
+        return float("nan"), float("inf")
+    rss = max(float(yy - 2 * th @ r + th @ G @ th), 0.0)
+    return float(th[0]), rss / n_rows
+
+
+#: R² above which an initial lag counts as indistinguishable from the input response.
+_COLLINEAR = 0.98
+
+
+@dataclass
+class _Estimated:
+    fit: OutputFit
+    offset: float
+    lags: NDArray[np.float64]
+    free: bool
+    bic: float
+
+
+def _prefer_free(tied: _Estimated, loose: _Estimated) -> bool:
+    """Keep the free start: a lower BIC, and no gain whose sign it reverses.
+
+    A gain that the steady start determines (more than three standard errors
+    from zero) and that the free start turns round is the free start trading
+    the input response against the initial lag (a step close to the start, or
+    dynamics a first-order lag does not have): the initial lag is there to
+    describe the start, not to reverse the input's effect.
+    """
+    if not loose.bic < tied.bic:
+        return False
+    se = np.sqrt(np.abs(np.diag(tied.fit.cov)[1:]))
+    sure = np.abs(tied.fit.b) > 3.0 * np.where(np.isfinite(se), se, np.inf)
+    flipped = np.sign(loose.fit.b) != np.sign(tied.fit.b)
+    return not bool(np.any(sure & flipped))
+
+
+def _fit_output_estimate(
+    us: list[NDArray[np.float64]],
+    ys: list[NDArray[np.float64]],
+    delays: NDArray[np.int64],
+    criterion: str,
+    name: str,
+    free: bool,
+) -> _Estimated:
+    """FOPTD of one output by output error with an offset and a steady or free start."""
+    y = np.concatenate(ys)
+    m = us[0].shape[1]
+    if np.ptp(y) <= 1e-12 * max(1.0, float(np.abs(y).max())):
+        raise IdentificationError(
+            f"FOPTD: output {name!r} is constant ({float(y[0])!r}) in the training data; "
+            "nothing to identify (check the column and that the inputs reach it)"
+        )
+
+    # stage 1 scores a delay by the output error at the best of a coarse grid of poles
+    # (time constants from half a sample to ten record lengths) and the equation-error pole
+    n_max = max(u.shape[0] for u in us)
+    grid = np.exp(-1.0 / np.geomspace(0.5, 10.0 * n_max, 14))
+
+    def stage1(trial: NDArray[np.int64]) -> float:
+        a, mse_eq = _equation_pole(us, ys, trial)
+        if criterion == "equation":
+            return mse_eq if 0.0 < a < 1.0 else float("inf")
+        poles = [*grid, a] if 0.0 < a < 1.0 else grid
+        return min(_oe_solve(us, y, trial, float(p), free)[0] for p in poles)
+
+    d = np.full(m, int(delays[0]), dtype=np.int64)
+    profile = np.full((m, delays.size), np.inf)
+    best = np.inf
+    for _sweep in range(6):
+        changed = False
+        for i in range(m):
+            for k, cand in enumerate(delays):
+                trial = d.copy()
+                trial[i] = cand
+                profile[i, k] = stage1(trial)
+            k_best = int(np.argmin(profile[i]))
+            val = float(profile[i, k_best])
+            if np.isfinite(val) and (not np.isfinite(best) or val < best):
+                changed = changed or d[i] != delays[k_best]
+                d[i] = delays[k_best]
+                best = val
+        if m == 1 or not changed:
+            break
+    # refine the pole of the best candidates (the last input's profile around d)
+    last = m - 1
+    order = [int(k) for k in np.argsort(profile[last]) if np.isfinite(profile[last, k])][:5]
+    found: tuple[float, float, float, NDArray[np.int64]] | None = None
+    for k in order:
+        trial = d.copy()
+        trial[last] = delays[k]
+        a, mse, curv = _oe_search(us, y, trial, free)
+        a_eq = _equation_pole(us, ys, trial)[0]
+        if 0.0 < a_eq < 1.0:
+            mse_eq = _oe_solve(us, y, trial, a_eq, free)[0]
+            if mse_eq < mse:  # the search missed the equation-error pole's basin
+                a, mse = a_eq, mse_eq
+        if criterion == "simulation" and np.isfinite(mse):
+            profile[last, k] = min(profile[last, k], mse)
+        if np.isfinite(mse) and (found is None or mse < found[1]):
+            found = (a, mse, curv, trial)
+    if found is None:
+        raise IdentificationError(
+            f"FOPTD of output {name!r}: no delay in {int(delays[0])}..{int(delays[-1])} samples "
+            "gives a stable first-order lag within ten record lengths; the output may drift or "
+            "integrate, or not respond to the inputs — check the data and the delay range"
+        )
+    a, mse, curv, d = found
+    _, th, X = _oe_solve(us, y, d, a, free)
+    b, c = th[:m], float(th[m])
+    identifiable = True
+    if free:
+        # an initial lag is told from the gains only if the input-driven columns do not
+        # already decay like a^k (an input step right at the start does): R² of the
+        # regression of each experiment's a^k column on the other columns
+        others = X[:, : m + 1]
+        for e in range(len(us)):
+            col = X[:, m + 1 + e]
+            fit_c = others @ np.linalg.lstsq(others, col, rcond=None)[0]
+            ss = float(np.sum((col - col.mean()) ** 2))
+            r2 = 1.0 - float(np.sum((col - fit_c) ** 2)) / ss if ss > 0 else 1.0
+            if r2 > _COLLINEAR:
+                identifiable = False
+    if free:
+        z0 = th[m + 1 :]
+    else:
+        z0 = np.array([float(b @ u[0]) / (1.0 - a) for u in us])
+    # covariance: (b, c, z) from the linear least squares at the pole; the pole from the
+    # curvature of the residual sum of squares in ln T (var = 2 σ² / rss'')
+    n_par = th.size + 1 + m  # with the pole and the delays
+    dof = max(y.size - n_par, 1)
+    s2 = mse * y.size / dof
+    cov = np.full((m + 1, m + 1), np.nan)
+    try:
+        cb = s2 * np.linalg.pinv(X.T @ X)
+        cov = np.zeros((m + 1, m + 1))
+        cov[1:, 1:] = cb[:m, :m]
+        var_ln = 2.0 * s2 / curv if curv > 0 else np.nan
+        cov[0, 0] = (a * np.log(a)) ** 2 * var_ln  # da/d(ln T) = −a ln a
+    except np.linalg.LinAlgError:
+        pass
+    loss = float(mse) if criterion == "simulation" else float(np.min(profile[last]))
+    bic = y.size * np.log(max(mse, 1e-300)) + n_par * np.log(y.size)
+    if not identifiable:
+        bic = float("inf")
+    return _Estimated(OutputFit(a, b.copy(), d, loss, profile, cov), c, z0, free, float(bic))
 
 
 def fit_foptd_arrays(
@@ -397,7 +651,7 @@ def fit_foptd(
     max_delay_s: float | None = None,
     min_delay: int = 0,
     criterion: str = "simulation",
-    operating_point_mode: str = "initial",
+    operating_point_mode: str = "estimate",
     validate: Recording | Sequence[Recording] = (),
 ) -> FOPTDResult:
     """Fit a set of FOPTD transfer functions (paper 000, section 4.1) to recordings.
@@ -422,23 +676,27 @@ def fit_foptd(
         Smallest delay searched [samples].
     criterion : {"simulation", "equation"}
         Error that picks the delay (see the module docstring).
-    operating_point_mode : {"initial", "mean", "rest", "none"}
-        What is subtracted from each experiment (paper: the initial values).
-        With ``"initial"``/``"mean"`` the experiment is taken to start in a
-        steady state at its first input; with ``"rest"``/``"none"`` at rest
-        with zero input (a heater switched on at ``t = 0``).
+    operating_point_mode : {"estimate", "initial", "mean", "rest", "none"}
+        ``"estimate"`` (default): no sample is taken as rest; the output
+        offset and each experiment's initial lag are fitted with the gains
+        (output error, see "Output error with offset and initial lag" in the
+        source), the inputs are referred to their mean. The paper's modes
+        subtract an operating point from each experiment: ``"initial"``
+        (paper 000: the initial values) and ``"mean"`` take the experiment
+        to start in a steady state at its first input; ``"rest"`` and
+        ``"none"`` at rest with zero input (a heater switched on at ``t = 0``).
     validate : Recording or sequence
         Recordings for validation metrics.
 
     Returns
     -------
     FOPTDResult
-        ``.fit`` is the FitResult: model ``foptd`` with offsets ``y0`` (the
-        output at rest with zero input) and a steady start, so the model alone
-        reproduces an experiment that starts at rest at the training
-        operating point; :func:`~thermogym.identification.linear_fit.predict_fit`
-        uses each recording's own initial values (the paper's convention),
-        and so do the metrics.
+        ``.fit`` is the FitResult: model ``foptd`` with the operating point
+        (``u_op`` in its config, the offsets ``y0``: the output at rest at
+        ``u_op``) and a steady start;
+        :func:`~thermogym.identification.linear_fit.predict_fit` and the
+        metrics simulate it with the initial state estimated from each
+        recording's outputs.
 
     Raises
     ------
@@ -461,10 +719,13 @@ def fit_foptd(
     t_start = time.perf_counter()
     inputs = [inputs] if isinstance(inputs, str) else list(inputs)
     outputs = [outputs] if isinstance(outputs, str) else list(outputs)
-    if operating_point_mode not in OPERATING_POINTS:
+    if operating_point_mode not in FOPTD_OPERATING_POINTS:
         raise ConfigError(
-            f"operating_point_mode is {operating_point_mode!r}; expected one of {OPERATING_POINTS}"
+            f"operating_point_mode is {operating_point_mode!r}; expected one of "
+            f"{FOPTD_OPERATING_POINTS}"
         )
+    if criterion not in CRITERIA:
+        raise ConfigError(f"criterion is {criterion!r}; expected one of {CRITERIA}")
     exps = signal_arrays(
         recordings,
         inputs,
@@ -489,23 +750,52 @@ def fit_foptd(
         )
     ins, dis = exogenous_roles(exps[0].recording, inputs, disturbances)
     order = [inputs.index(c) for c in ins + dis]  # model column order: inputs, disturbances
-    us, ys, ops = [], [], []
-    for e in exps:
-        u_op, y_op = operating_point(e.u, e.y, operating_point_mode)
-        assert y_op is not None
-        us.append((e.u - u_op)[:, order])
-        ys.append(e.y - y_op)
-        ops.append((u_op[order], y_op))
     delays = np.arange(int(min_delay), int(max_delay) + 1, dtype=np.int64)
-    # initial / mean: the experiment starts in a steady state at its first input;
-    # rest / none: at rest with zero (deviation) input before t = 0
-    steady = operating_point_mode in ("initial", "mean")
-    K, T, tau, fits = fit_foptd_arrays(
-        us, ys, dt, delays=delays, criterion=criterion, start="steady" if steady else "rest"
-    )
+    if operating_point_mode == "estimate":
+        u_ref = np.mean(np.concatenate([e.u for e in exps]), axis=0)[order]
+        us = [e.u[:, order] - u_ref for e in exps]
+        fits, y0_list, z0, starts = [], [], [], {}
+        for j, name in enumerate(outputs):
+            yj = [e.y[:, j] for e in exps]
+            tied = _fit_output_estimate(us, yj, delays, criterion, name, free=False)
+            try:
+                loose = _fit_output_estimate(us, yj, delays, criterion, name, free=True)
+            except IdentificationError:
+                loose = tied
+            est = loose if _prefer_free(tied, loose) else tied
+            fits.append(est.fit)
+            y0_list.append(est.offset)
+            z0.append(est.lags.tolist())
+            starts[name] = "free" if est.free else "steady"
+        a = np.array([f.a for f in fits])[:, None]
+        b = np.stack([f.b for f in fits])
+        dd = np.stack([f.d for f in fits])
+        K, T, tau = discrete_to_foptd(np.broadcast_to(a, b.shape), b, dd, dt)  # (11)-(12)
+        u_op, y0 = u_ref, np.array(y0_list)
+        steady = True
+        extra_settings: dict[str, Any] = {
+            "initial_lags": dict(zip(outputs, z0, strict=True)),
+            "start": starts,
+        }
+    else:
+        us, ys, ops = [], [], []
+        for e in exps:
+            uo, yo = operating_point(e.u, e.y, operating_point_mode)
+            assert yo is not None
+            us.append((e.u - uo)[:, order])
+            ys.append(e.y - yo)
+            ops.append((uo[order], yo))
+        # initial / mean: the experiment starts in a steady state at its first input;
+        # rest / none: at rest with zero (deviation) input before t = 0
+        steady = operating_point_mode in ("initial", "mean")
+        K, T, tau, fits = fit_foptd_arrays(
+            us, ys, dt, delays=delays, criterion=criterion, start="steady" if steady else "rest"
+        )
+        # operating point of the model: the mean over the experiments (output at rest there)
+        u_op = np.mean([o[0] for o in ops], axis=0)
+        y0 = np.mean([yo - K @ (uo - u_op) for uo, yo in ops], axis=0)
+        extra_settings = {}
     seconds = time.perf_counter() - t_start
-    # offsets: output at rest with zero input, y0 = y_op − K u_op (mean over experiments)
-    y0 = np.mean([y_op - K @ u_op for u_op, y_op in ops], axis=0)
     rec0 = exps[0].recording
     units = {c: rec0.units[c] for c in ins + dis + outputs if c in rec0.units}
     model = FOPTDModel(
@@ -519,6 +809,7 @@ def fit_foptd(
         offsets=True,
         y0=y0,
         steady_start=steady,
+        u_op=u_op,
     )
     stderr: dict[str, float] = {}
     exo = ins + dis
@@ -536,9 +827,10 @@ def fit_foptd(
         "common_pole": True,
         "operating_point": {
             "mode": operating_point_mode,
-            "inputs": {c: float(np.mean([op[0][i] for op in ops])) for i, c in enumerate(exo)},
-            "outputs": {c: float(np.mean([op[1][j] for op in ops])) for j, c in enumerate(outputs)},
+            "inputs": {c: float(u_op[i]) for i, c in enumerate(exo)},
+            "outputs": {c: float(y0[j]) for j, c in enumerate(outputs)},
         },
+        **extra_settings,
         "loss": {c: f.loss for c, f in zip(outputs, fits, strict=True)},
         "seconds": seconds,
     }

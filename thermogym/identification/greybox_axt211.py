@@ -22,9 +22,10 @@ plus the closed-loop temperature staircase (the paper's gain/backlash
 experiment, Fig. 3); validation uses the other step tests and the PWM test. The
 paper reports ξ = 0.93 / 0.95 / 0.84 (mean) and Table II above 0.90.
 
-:func:`reproduce_paper002` generates the rig data and runs everything from
-perturbed start values; :attr:`GreyboxResult.recovered` compares the fitted
-parameters with the rig's true ones and their confidence intervals.
+:func:`thermogym.studies.axt211.reproduce_paper002` generates the rig data and
+runs everything from perturbed start values; :attr:`GreyboxResult.recovered`
+compares the fitted parameters with the rig's true ones and their confidence
+intervals.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 from scipy import stats
+from scipy.ndimage import uniform_filter1d
 
 from thermogym.errors import ConfigError, RecordingError, ShapeError
 from thermogym.fitresult import FitResult, data_entry
@@ -53,12 +55,10 @@ __all__ = [
     "PTC",
     "THERMAL",
     "AXT211Mechanics",
-    "GreyboxConfig",
     "GreyboxResult",
     "PTCFit",
     "fit_ptc_polynomial",
     "identify_axt211",
-    "reproduce_paper002",
     "smooth_disturbances",
 ]
 
@@ -322,8 +322,6 @@ def smooth_disturbances(
     -------
     Recording
     """
-    from scipy.ndimage import uniform_filter1d
-
     if window_s <= 0:
         return rec
     n = max(1, round(window_s / rec.dt))
@@ -351,51 +349,7 @@ def smooth_disturbances(
     return out
 
 
-# ----------------------------------------------------------------- the study
-@dataclass(frozen=True)
-class GreyboxConfig:
-    """Arguments of :func:`reproduce_paper002`.
-
-    Attributes
-    ----------
-    seed : int
-        Seed of the rig data and of the start perturbation.
-    effects : tuple of str
-        Physics the rig has and the model lacks (e.g. ``("phase_change",)``);
-        none by default: the rig's plant is the model plus sensors.
-    perturbation : float
-        Start values are the nominal ones times ``1 + perturbation · U(−1, 1)``.
-    train_steps : tuple of (float, float)
-        (supply [V], ambient [°C]) of the step tests used for training.
-    jac : {"exact", "fd", "auto"}
-        Jacobian of the thermodynamic fit.
-    level : float
-        Confidence level of the intervals.
-    max_iter : int
-        Gauss-Newton iterations per stage.
-    staircase_hold_s : float
-        Hold time of each temperature step of the staircase test [s].
-    joint : bool
-        Refine every parameter together on the full model (stage 4).
-    mc_samples : int
-        Monte Carlo samples of the mechanics' global start.
-    smooth_s : float
-        Moving-average window for the measured disturbances [s] (0: off).
-    """
-
-    seed: int = 0
-    effects: tuple[str, ...] = ()
-    perturbation: float = 0.3
-    train_steps: tuple[tuple[float, float], ...] = ((24.0, 25.0), (19.0, 0.0), (29.0, 50.0))
-    jac: str = "exact"
-    level: float = 0.95
-    max_iter: int = 100
-    staircase_hold_s: float = 1800.0
-    joint: bool = True
-    mc_samples: int = 1000
-    smooth_s: float = 120.0
-
-
+# ---------------------------------------------------------------- the result
 @dataclass
 class GreyboxResult:
     """Outcome of the AXT211 grey-box identification.
@@ -503,18 +457,6 @@ class GreyboxResult:
                     f"{r['truth']:>10.5g}  {'yes' if r['inside'] else 'NO'}"
                 )
         return "\n".join(lines)
-
-
-def _perturbed_start(
-    names: Sequence[str], rng: np.random.Generator, perturbation: float
-) -> dict[str, float]:
-    out = {}
-    for n in names:
-        p = _SPEC[n]
-        v = p.nominal * (1.0 + perturbation * rng.uniform(-1.0, 1.0))
-        span = p.upper - p.lower
-        out[n] = float(np.clip(v, p.lower + 0.01 * span, p.upper - 0.01 * span))
-    return out
 
 
 def identify_axt211(
@@ -865,68 +807,3 @@ def _xi_submodels(params: dict[str, float], rec: Recording) -> dict[str, float]:
         "thermal": float(accuracy_xi(rec["T_P"], sim.output("T_P")[0])),
         "mechanical": float(accuracy_xi(rec["x_V"], xv)),
     }
-
-
-def reproduce_paper002(
-    config: GreyboxConfig | None = None, *, progress: bool | None = None
-) -> GreyboxResult:
-    """Generate AXT211 rig data and identify the model as paper 002 does.
-
-    Training: the step tests at ``config.train_steps`` (PTC, thermodynamics)
-    and the closed-loop staircase plus the first training step (mechanics).
-    Validation: the other step tests of the 19-29 V × 0-50 °C grid and the
-    PWM test. Start values are the nominal ones perturbed by
-    ``config.perturbation``; the result compares the fitted parameters with
-    the rig's true ones.
-
-    Parameters
-    ----------
-    config : GreyboxConfig, optional
-    progress : bool, optional
-
-    Returns
-    -------
-    GreyboxResult
-    """
-    from thermogym.rigs import get_rig, to_recording
-
-    cfg = config or GreyboxConfig()
-    if not 0 <= cfg.perturbation < 1:
-        raise ConfigError(f"perturbation is {cfg.perturbation!r}, expected in [0, 1)")
-    rig = get_rig("axt211", cfg.effects)
-    steps = [to_recording(r, "axt211") for r in rig.run("steps", seed=cfg.seed)]
-    train_ids = {f"axt211-step-{v:g}V-{t:g}C" for v, t in cfg.train_steps}
-    train = [r for r in steps if r.experiment_id in train_ids]
-    if len(train) != len(train_ids):
-        raise ConfigError(
-            f"train_steps {list(cfg.train_steps)} are not all step tests of the rig "
-            "(supply in 19/24/29 V, ambient in 0/25/50 °C)"
-        )
-    stair = [
-        to_recording(r, "axt211")
-        for r in rig.run("staircase", seed=cfg.seed + 1, hold_s=cfg.staircase_hold_s)
-    ]
-    pwm = [to_recording(r, "axt211") for r in rig.run("pwm", seed=cfg.seed + 2)]
-    validation = [r for r in steps if r.experiment_id not in train_ids] + pwm
-    model, overrides = rig.plant()
-    truth_th = model.theta(overrides)[0]
-    truth = dict(zip(model.param_names, truth_th.tolist(), strict=True))
-    rng = np.random.default_rng(cfg.seed)
-    start = _perturbed_start([*THERMAL, *MECHANICAL], rng, cfg.perturbation)
-    # the mechanics need a test whose wax temperature crosses the whole stroke range
-    full_stroke = max(train, key=lambda r: float(np.nanmax(r["x_V"])))
-    return identify_axt211(
-        train,
-        [*stair, full_stroke],
-        validation,
-        start=start,
-        jac=cfg.jac,
-        level=cfg.level,
-        max_iter=cfg.max_iter,
-        joint=cfg.joint,
-        mc_samples=cfg.mc_samples,
-        seed=cfg.seed,
-        smooth_s=cfg.smooth_s,
-        progress=progress,
-        truth=truth,
-    )

@@ -31,16 +31,21 @@ from thermogym.errors import ConfigError, RecordingError
 from thermogym.fitresult import FitResult, data_entry, load_fit
 from thermogym.identification.metrics import fit_report
 from thermogym.identification.prepare import check_identification_data
-from thermogym.models.linear import FOPTDModel, StateSpaceModel
+from thermogym.models.linear import X0_MODES, FOPTDModel, StateSpaceModel
 from thermogym.recording import Recording
 
 __all__ = [
+    "OPERATING_CHOICES",
     "OPERATING_POINTS",
+    "X0_CHOICES",
     "Experiment",
+    "Prediction",
     "data_entries",
     "evaluate_fit",
     "exogenous_roles",
+    "fit_model",
     "operating_point",
+    "predict",
     "predict_fit",
     "signal_arrays",
     "simulate_recording",
@@ -172,49 +177,204 @@ def operating_point(
     return pick(u, mode), pick(y, mode)  # type: ignore[return-value]
 
 
-def _settings_op(fit: FitResult) -> dict[str, Any]:
+def _settings_op(fit: FitResult) -> dict[str, Any] | None:
     op = fit.settings.get("operating_point")
-    if not isinstance(op, Mapping) or op.get("mode") not in OPERATING_POINTS:
-        raise ConfigError(
-            f"FitResult of model {fit.model!r} (method {fit.method!r}) has no "
-            "settings['operating_point'] {'mode', 'inputs', 'outputs'}; it was not made by "
-            "thermogym's linear identification"
-        )
+    if not isinstance(op, Mapping):
+        return None
     return dict(op)
+
+
+#: Initial-state choices of :func:`predict`: "auto" is "estimate" when the recording
+#: has the outputs, else "steady".
+X0_CHOICES: tuple[str, ...] = ("auto", *X0_MODES)
+#: Operating-point choices of :func:`predict`.
+OPERATING_CHOICES: tuple[str, ...] = ("auto", "fit", "recording")
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Outputs of a fitted linear model on a recording, and how they were obtained.
+
+    Attributes
+    ----------
+    outputs : ndarray, shape (T, p)
+        Predicted outputs in the model's output order (absolute units).
+    output_names : tuple of str
+    x0 : str
+        Initial-state mode used: ``"zero"``, ``"steady"`` or ``"estimate"``.
+    state0 : ndarray, shape (n_x,)
+        The initial state used.
+    u_op, y_op : ndarray
+        Operating point applied (absolute units).
+    operating : str
+        ``"fit"`` (the FitResult's) or ``"recording"`` (the recording's own).
+    """
+
+    outputs: NDArray[np.float64]
+    output_names: tuple[str, ...]
+    x0: str
+    state0: NDArray[np.float64]
+    u_op: NDArray[np.float64]
+    y_op: NDArray[np.float64]
+    operating: str
+
+
+def fit_model(
+    fit: FitResult | str | Mapping[str, Any],
+    *,
+    u_op: NDArray[np.float64] | None = None,
+    y_op: NDArray[np.float64] | None = None,
+) -> tuple[FOPTDModel | StateSpaceModel, NDArray[np.float64]]:
+    """The model of an ``ss`` or ``foptd`` FitResult with its operating point, and theta.
+
+    :meth:`FitResult.build_model` already applies the operating point stored
+    in the fit (older ``ss`` fits keep it in ``settings["operating_point"]``
+    and get it from there); ``u_op``/``y_op`` replace it (FOPTD: ``y_op``
+    becomes the offsets ``y0``).
+
+    Returns
+    -------
+    model : FOPTDModel or StateSpaceModel
+    theta : ndarray, shape (1, P)
+    """
+    fit = load_fit(fit)
+    if fit.model not in ("ss", "foptd"):
+        raise ConfigError(
+            f"this needs an 'ss' or 'foptd' FitResult (a linear model); this one is {fit.model!r}"
+        )
+    model = fit.build_model()
+    theta = fit.theta(model)
+    if u_op is None and y_op is None:
+        return model, theta  # type: ignore[return-value]
+    cfg = dict(model.config())
+    if u_op is not None:
+        cfg["u_op"] = np.asarray(u_op, dtype=float).tolist()
+    if isinstance(model, StateSpaceModel):
+        if y_op is not None:
+            cfg["y_op"] = np.asarray(y_op, dtype=float).tolist()
+        return StateSpaceModel(**cfg), theta
+    assert isinstance(model, FOPTDModel)
+    new = FOPTDModel(**{**cfg, "offsets": True, "y0": cfg.get("y0", 0.0)})
+    params = dict(zip(model.param_names, theta[0].tolist(), strict=True))
+    if y_op is not None:
+        for c, v in zip(model.output_names, np.asarray(y_op, dtype=float), strict=True):
+            params[f"y0_{c}"] = float(v)
+    return new, new.theta(params)
+
+
+def predict(
+    fit: FitResult | str | Mapping[str, Any],
+    rec: Recording,
+    *,
+    x0: str = "auto",
+    operating: str = "auto",
+) -> Prediction:
+    """Simulate a linear FitResult (``ss`` or ``foptd``) on a recording's inputs.
+
+    Every command that shows a linear fit on data goes through here, so
+    identify, simulate, compare, resid and the diagnosis give the same
+    prediction of the same fit.
+
+    Parameters
+    ----------
+    fit : FitResult, path or dict
+        Made by :func:`~thermogym.identification.foptd.fit_foptd`,
+        :func:`~thermogym.identification.n4sid.n4sid`,
+        :class:`~thermogym.identification.rls.RecursiveFOPTD`, or any
+        ``ss``/``foptd`` FitResult.
+    rec : Recording
+        Uniform, with the model's exogenous columns (any positive sample
+        period), and optionally its outputs.
+    x0 : {"auto", "estimate", "steady", "zero"}
+        Initial state: ``"estimate"`` least squares on the recording's outputs
+        (MATLAB ``compare``), ``"steady"`` (settled at the first input),
+        ``"zero"`` (at rest at the operating point); ``"auto"``: estimate when
+        the recording has every output, else steady.
+    operating : {"auto", "fit", "recording"}
+        Operating point: the FitResult's, or the recording's own as the fit's
+        mode defines it (its first samples or means: the paper-000 convention
+        of referring every experiment to its initial values). ``"auto"``:
+        the recording's for fits made in the modes ``"initial"`` and
+        ``"rest"`` (the model describes deviations from each experiment's
+        start), the fit's otherwise. Fits whose offsets were estimated (mode
+        ``"estimate"``) and recordings without outputs always use the fit's.
+
+    Returns
+    -------
+    Prediction
+
+    Examples
+    --------
+    >>> from thermogym.models.linear import FOPTDModel
+    >>> from thermogym.identification.foptd import fit_foptd
+    >>> m = FOPTDModel(["u"], ["y"], K=2.0, T=20.0, tau=3.0)
+    >>> u = np.r_[np.zeros(10), np.ones(190)]
+    >>> y = 5.0 + m.simulate(u[:, None], 1.0).outputs[0, :, 0]
+    >>> rec = Recording(np.arange(200.0), {"u": u, "y": y})
+    >>> res = fit_foptd(rec, ["u"], ["y"], max_delay=10)
+    >>> p = predict(res.fit, rec)
+    >>> p.x0, bool(np.allclose(p.outputs[:, 0], y, atol=1e-6))
+    ('estimate', True)
+    """
+    fit = load_fit(fit)
+    if x0 == "fit":  # the older spelling: the fit's own setting
+        x0 = str(fit.settings.get("x0", "auto"))
+    if x0 not in X0_CHOICES:
+        raise ConfigError(f"x0 is {x0!r}; expected one of {list(X0_CHOICES)}")
+    if operating not in OPERATING_CHOICES:
+        raise ConfigError(f"operating is {operating!r}; expected one of {list(OPERATING_CHOICES)}")
+    model, theta = fit_model(fit)
+    exo = list(model.exogenous_names)
+    outs = list(model.output_names)
+    missing = [c for c in exo if c not in rec.columns]
+    if missing:
+        raise RecordingError(
+            f"recording {rec.experiment_id!r} lacks the model's input column(s) {missing}; "
+            f"it has {list(rec.columns)}"
+        )
+    rec.check_values(exo)
+    u = np.column_stack([rec[c] for c in exo])
+    has_y = all(c in rec.columns and np.isfinite(rec[c]).all() for c in outs)
+    y = np.column_stack([rec[c] for c in outs]) if has_y else None
+    op = _settings_op(fit)
+    used = "fit"
+    mode_op = op.get("mode") if op else None
+    if operating == "auto":
+        operating = "recording" if mode_op in ("initial", "rest") else "fit"
+    if operating == "recording" and y is not None and mode_op in OPERATING_POINTS:
+        u_rec, y_rec = operating_point(u, y, str(op["mode"]))
+        model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec)
+        used = "recording"
+    mode = x0
+    if mode == "auto":
+        mode = "estimate" if y is not None else "steady"
+    if mode == "estimate" and y is None:
+        raise RecordingError(
+            f"x0='estimate' needs the output column(s) {outs} in recording "
+            f"{rec.experiment_id!r}; it has {list(rec.columns)} (use x0='steady' or 'zero')"
+        )
+    sim = model.simulate(
+        u,
+        rec.dt,
+        theta,
+        mode,
+        y=y if mode == "estimate" else None,
+        return_states=True,
+        t0=float(rec.time[0]),
+    )
+    assert sim.states is not None
+    u_op, y_op = (a[0] for a in model.operating_point(theta))
+    return Prediction(sim.outputs[0], tuple(outs), mode, sim.states[0, 0].copy(), u_op, y_op, used)
 
 
 def predict_fit(
     fit: FitResult | str | Mapping[str, Any],
     rec: Recording,
     *,
-    x0: str = "fit",
-    operating: str = "recording",
+    x0: str = "auto",
+    operating: str = "auto",
 ) -> NDArray[np.float64]:
-    """Simulate a linear FitResult (``ss`` or ``foptd``) on a recording's inputs.
-
-    Parameters
-    ----------
-    fit : FitResult, path or dict
-        Made by :func:`~thermogym.identification.foptd.fit_foptd`,
-        :func:`~thermogym.identification.n4sid.n4sid` or
-        :class:`~thermogym.identification.rls.RecursiveFOPTD`.
-    rec : Recording
-        Uniform, with the model's exogenous columns at the model's ``dt`` (or
-        an integer multiple for ``ss``), and optionally its outputs.
-    x0 : {"fit", "estimate", "zero", "steady"}
-        Initial state of a state-space model: ``"fit"`` uses the fit's own
-        setting (``settings["x0"]``), ``"estimate"`` least squares on the
-        recording's outputs (MATLAB ``compare``), ``"zero"``, or ``"steady"``
-        (at rest with the first input). FOPTD models always start at rest.
-    operating : {"recording", "fit"}
-        Operating point: the recording's own (its first samples or means, as
-        the fit's mode says; the paper's convention) or the training values
-        stored in the fit. Without output columns the fit's is used.
-
-    Returns
-    -------
-    ndarray, shape (T, p)
-        Predicted outputs in the model's output order.
+    """Predicted outputs, shape (T, p), of :func:`predict`.
 
     Examples
     --------
@@ -228,61 +388,7 @@ def predict_fit(
     >>> bool(np.allclose(predict_fit(res.fit, rec)[:, 0], y, atol=1e-6))
     True
     """
-    fit = load_fit(fit)
-    if fit.model not in ("ss", "foptd"):
-        raise ConfigError(
-            f"predict_fit handles 'ss' and 'foptd' FitResults, this one is {fit.model!r}"
-        )
-    op = _settings_op(fit)
-    model = fit.build_model()
-    theta = fit.theta(model)
-    exo = list(model.exogenous_names)
-    outs = list(model.output_names)
-    missing = [c for c in exo if c not in rec.columns]
-    if missing:
-        raise RecordingError(
-            f"recording {rec.experiment_id!r} lacks the model's input column(s) {missing}; "
-            f"it has {list(rec.columns)}"
-        )
-    rec.check_values(exo)
-    u = np.column_stack([rec[c] for c in exo])
-    has_y = all(c in rec.columns and np.isfinite(rec[c]).all() for c in outs)
-    y = np.column_stack([rec[c] for c in outs]) if has_y else None
-    if operating not in ("recording", "fit"):
-        raise ConfigError(f"operating is {operating!r}; expected 'recording' or 'fit'")
-    u_fit = np.array([op["inputs"].get(c, 0.0) for c in exo], dtype=float)
-    y_fit = np.array([op["outputs"].get(c, 0.0) for c in outs], dtype=float)
-    if operating == "recording" and y is not None:
-        u_op, y_op = operating_point(u, y, op["mode"])
-        assert y_op is not None
-    else:
-        u_op, y_op = u_fit, y_fit
-    dt = rec.dt
-    if isinstance(model, FOPTDModel):
-        # y = y_op + G (u − u_op) from a steady start at u[0]; the model adds the offset
-        # y0 (output at rest with zero input) to lags that start at K u[0]: y0 = y_op − K u_op
-        K = model.dcgain(theta)[0]
-        y0 = y_op - K @ u_op
-        th = model.theta(theta, **{f"y0_{c}": float(v) for c, v in zip(outs, y0, strict=True)})
-        return model.simulate(u, dt, th, t0=float(rec.time[0])).outputs[0]
-    if not isinstance(model, StateSpaceModel):  # pragma: no cover - guarded above
-        raise ConfigError(f"unexpected model {model.name!r}")
-    du = u - u_op
-    mode = fit.settings.get("x0", "estimate") if x0 == "fit" else x0
-    if mode == "estimate" and y is None:
-        mode = "steady"
-    if mode == "estimate":
-        assert y is not None
-        xi = model.estimate_x0(du, y - y_op, theta)[0]
-    elif mode == "zero":
-        xi = np.zeros(model.n_states)
-    elif mode == "steady":
-        mats = model.matrices(theta)
-        xi = np.linalg.solve(np.eye(model.n_states) - mats.A[0], mats.B[0] @ du[0])
-    else:
-        raise ConfigError(f"x0 is {x0!r}; expected 'fit', 'estimate', 'zero' or 'steady'")
-    sim = model.simulate(du, dt, theta, xi, t0=float(rec.time[0]))
-    return sim.outputs[0] + y_op
+    return predict(fit, rec, x0=x0, operating=operating).outputs
 
 
 def evaluate_fit(

@@ -64,12 +64,10 @@ Hankel matrices (``benchmarks/n4sid.py`` measures both).
 
 from __future__ import annotations
 
-import contextlib
-import functools
 import math
 import time
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -90,6 +88,7 @@ from thermogym.identification.linear_fit import (
     operating_point,
     signal_arrays,
 )
+from thermogym.models._blas import blas_threads, single_blas_thread
 from thermogym.models.linear import StateSpaceModel, c2d_zoh, d2c_zoh
 from thermogym.recording import Recording
 
@@ -104,38 +103,6 @@ __all__ = [
     "n4sid",
     "n4sid_decompose",
 ]
-
-try:  # limits BLAS threads around small-matrix work (optional)
-    from threadpoolctl import threadpool_limits
-except ImportError:  # pragma: no cover - threadpoolctl not installed
-    threadpool_limits = None
-
-
-@contextlib.contextmanager
-def blas_single_thread() -> Iterator[None]:
-    """Run BLAS/LAPACK on one thread inside the block.
-
-    The matrices here are small (tens to hundreds of rows): extra BLAS threads
-    only add synchronisation, and on a busy machine OpenBLAS's spinning
-    threads made a 1500 × 96 QR take 0.2-1.4 s instead of 8 ms.
-    """
-    if threadpool_limits is None:  # pragma: no cover
-        yield
-        return
-    with threadpool_limits(limits=1, user_api="blas"):
-        yield
-
-
-def _one_blas_thread(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Decorator: run ``fn`` under :func:`blas_single_thread`."""
-
-    @functools.wraps(fn)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        with blas_single_thread():
-            return fn(*args, **kwargs)
-
-    return wrapper
-
 
 #: Weightings of the projected Hankel matrix before the SVD.
 WEIGHTINGS: tuple[str, ...] = ("moesp", "cva", "n4sid")
@@ -538,7 +505,7 @@ class StateSpaceFit:
         Psi = _obs_seq(
             np.ascontiguousarray(self.A_id), np.ascontiguousarray(self.C_id), ur.shape[0]
         )
-        with blas_single_thread():
+        with blas_threads(1):
             sol = np.linalg.lstsq(
                 Psi.reshape(-1, self.order), (yr - forced).reshape(-1), rcond=None
             )
@@ -664,7 +631,7 @@ class N4SIDDecomposition:
             )
         return int(order)
 
-    @_one_blas_thread
+    @single_blas_thread
     def system(
         self,
         order: int,
@@ -1000,7 +967,7 @@ def _default_horizon(max_order: int, p: int) -> int:
     return max(10, math.ceil(max_order / p) + 1)
 
 
-@_one_blas_thread
+@single_blas_thread
 def n4sid_decompose(
     u: Sequence[NDArray[np.float64]],
     y: Sequence[NDArray[np.float64]],
@@ -1273,13 +1240,15 @@ def system_fitresult(
     )
     exo = prob.inputs + prob.disturbances
     st = dict(settings)
+    u_op = np.mean([op[0] for op in prob.ops], axis=0)
+    y_op = np.mean([op[1] for op in prob.ops], axis=0)
     st["operating_point"] = {
         "mode": st.get("operating_point_mode", "none"),
-        "inputs": {c: float(np.mean([op[0][k] for op in prob.ops])) for k, c in enumerate(exo)},
-        "outputs": {
-            c: float(np.mean([op[1][k] for op in prob.ops])) for k, c in enumerate(prob.outputs)
-        },
+        "inputs": {c: float(u_op[k]) for k, c in enumerate(exo)},
+        "outputs": {c: float(y_op[k]) for k, c in enumerate(prob.outputs)},
     }
+    # the model itself carries the operating point: every simulation path applies it
+    model = StateSpaceModel(**{**model.config(), "u_op": u_op.tolist(), "y_op": y_op.tolist()})
     arr = {
         "x0_train": [x.tolist() for x in system.x0],
         "eigenvalues_abs": np.abs(np.linalg.eigvals(system.A)).tolist(),

@@ -49,6 +49,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import ConfigError, IdentificationError, RecordingError
 from thermogym.recording import Recording
 
@@ -194,8 +195,7 @@ def hampel_mask(
     x = np.asarray(x, dtype=float)
     if int(window) != window or window < 1:
         raise ConfigError(f"Hampel window is {window!r}; expected a whole number of samples >= 1")
-    if not (n_sigma > 0):
-        raise ConfigError(f"n_sigma is {n_sigma!r}; expected a positive number")
+    positive("n_sigma", n_sigma, error=ConfigError, text=False)
     n = x.size
     w = int(window)
     if n < 3:
@@ -367,8 +367,7 @@ def resample(
     >>> out.time.tolist(), out["y"].round(6).tolist()
     ([0.0, 1.0, 2.0, 3.0], [0.0, 1.0, 2.0, 3.0])
     """
-    if not (np.isfinite(dt) and dt > 0):
-        raise ConfigError(f"dt is {dt!r}; expected a positive grid period in seconds")
+    positive("dt", dt, unit="s", error=ConfigError, text=False)
     if method not in _RESAMPLE_METHODS:
         raise ConfigError(f"resampling method {method!r}; expected one of {_RESAMPLE_METHODS}")
     cols = _columns(rec, columns, list(rec.columns))
@@ -557,7 +556,7 @@ def fill_gaps(
     >>> out["y"].tolist(), rep["filled"]["y"]["points"]
     ([0.0, 1.0, 2.0, 3.0, 4.0, 5.0], 2)
     """
-    if not (max_gap_s >= 0):
+    if not (max_gap_s >= 0):  # inf allowed: fill every gap
         raise ConfigError(f"max_gap_s is {max_gap_s!r}; expected a duration >= 0 s")
     cols = _columns(rec, columns, list(rec.columns))
     t = rec.time

@@ -33,16 +33,16 @@ Two objectives are offered:
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import math
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import (
     ConfigError,
     ExternalModelError,
@@ -51,8 +51,11 @@ from thermogym.errors import (
     ShapeError,
     UnknownNameError,
 )
+from thermogym.identification.jacobian import residual_jacobian
 from thermogym.identification.metrics import fit_report
+from thermogym.identification.optimizers.sensitivities import sensitivity_function
 from thermogym.identification.simmodel import SimBatch, SimModel, ThermogymModel
+from thermogym.models._blas import blas_threads
 from thermogym.models.base import Model
 from thermogym.recording import Recording
 
@@ -232,24 +235,6 @@ class _Counters:
         return dict(vars(self))
 
 
-_CONTROLLER: Any = None
-
-
-@contextlib.contextmanager
-def _blas_limit(n: int | None) -> Iterator[None]:
-    """Limit BLAS threads (threadpoolctl) while a batch simulates."""
-    global _CONTROLLER
-    if n is None:
-        yield
-        return
-    if _CONTROLLER is None:
-        from threadpoolctl import ThreadpoolController
-
-        _CONTROLLER = ThreadpoolController()
-    with _CONTROLLER.limit(limits=n, user_api="blas"):
-        yield
-
-
 def _as_pair(p: Any) -> SignalPair:
     if isinstance(p, SignalPair):
         return p
@@ -380,8 +365,7 @@ class Problem:
         if objective not in OBJECTIVES:
             raise ConfigError(f"objective is {objective!r}, expected one of {OBJECTIVES}")
         self.objective = objective
-        if not (math.isfinite(max_batch_mb) and max_batch_mb > 0):
-            raise ConfigError(f"max_batch_mb is {max_batch_mb!r}, expected a positive number")
+        positive("max_batch_mb", max_batch_mb, error=ConfigError, text=False)
         self._max_bytes = float(max_batch_mb) * 2**20
         self.experiments: tuple[Recording, ...] = self._check_experiments(experiments)
         self._sim_names = tuple(model.param_names)
@@ -756,7 +740,7 @@ class Problem:
 
     def _call(self, theta: NDArray[np.float64], exp: Recording) -> SimBatch:
         B = theta.shape[0]
-        with _blas_limit(self.blas_threads):
+        with blas_threads(self.blas_threads):
             sb = self.model.simulate(theta, exp)
         self.counters.calls += 1
         self.counters.simulations += B
@@ -839,8 +823,6 @@ class Problem:
         See :func:`thermogym.identification.optimizers.sensitivities.sensitivity_function`.
         """
         if not self._sensitivity_checked:
-            from thermogym.identification.optimizers.sensitivities import sensitivity_function
-
             self._sensitivity_fn = sensitivity_function(self.model)
             self._sensitivity_checked = True
         return self._sensitivity_fn
@@ -865,7 +847,7 @@ class Problem:
             consistent). ``"exact"``: forward sensitivities of the model
             (:mod:`~thermogym.identification.optimizers.sensitivities`), one
             augmented simulation per experiment. ``"auto"``: exact when the
-            model offers it.
+            model offers it. Computed by :mod:`~thermogym.identification.jacobian`.
         diff : {"forward", "central"}
             Finite-difference scheme.
         step : float, optional
@@ -887,8 +869,6 @@ class Problem:
         ConfigError
             ``method="exact"`` for a model without sensitivities.
         """
-        from thermogym.identification.optimizers.local import residual_jacobian
-
         return residual_jacobian(self, z, method=method, diff=diff, step=step, r0=r0)
 
     # ------------------------------------------------------------- reporting

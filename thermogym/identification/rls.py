@@ -35,8 +35,9 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import in_range, integer, positive
 from thermogym.errors import ConfigError, IdentificationError, ShapeError
-from thermogym.fitresult import FitResult
+from thermogym.fitresult import FitResult, load_fit
 from thermogym.models.linear import FOPTDModel, discrete_to_foptd
 
 __all__ = ["RLS", "RecursiveFOPTD"]
@@ -134,17 +135,13 @@ class RLS:
         theta0: ArrayLike | None = None,
         max_trace: float | None = None,
     ) -> None:
-        if int(n_params) != n_params or n_params < 1:
-            raise ConfigError(f"n_params is {n_params!r}; expected a whole number >= 1")
-        if int(n_problems) != n_problems or n_problems < 1:
-            raise ConfigError(f"n_problems is {n_problems!r}; expected a whole number >= 1")
-        if not (0.0 < forgetting <= 1.0):
-            raise ConfigError(
-                f"forgetting factor is {forgetting!r}; expected 0 < λ <= 1 (memory about "
-                "1/(1 − λ) samples)"
-            )
-        if not (np.isfinite(p0) and p0 > 0):
-            raise ConfigError(f"p0 is {p0!r}; expected a positive number")
+        integer("n_params", n_params, lo=1, error=ConfigError)
+        integer("n_problems", n_problems, lo=1, error=ConfigError)
+        # λ in (0, 1]: the estimate remembers about 1/(1 − λ) samples
+        in_range(
+            "forgetting factor", forgetting, 0.0, 1.0, lo_open=True, error=ConfigError, text=False
+        )
+        positive("p0", p0, error=ConfigError, text=False)
         self.q, self.J = int(n_params), int(n_problems)
         self.forgetting = float(forgetting)
         self.max_trace = float(max_trace) if max_trace is not None else self.q * float(p0)
@@ -275,9 +272,7 @@ class RecursiveFOPTD:
         bad = [d for d in self.disturbances if d not in self.inputs]
         if bad:
             raise ConfigError(f"disturbances {bad} are not among the inputs {self.inputs}")
-        if not (np.isfinite(dt) and dt > 0):
-            raise ConfigError(f"dt is {dt!r}; expected a positive sample period in seconds")
-        self.dt = float(dt)
+        self.dt = positive("dt", dt, unit="s", error=ConfigError, text=False)
         m, p = len(self.inputs), len(self.outputs)
         d = np.asarray(delays)
         try:
@@ -309,8 +304,6 @@ class RecursiveFOPTD:
         ``p0`` is small here: the batch fit is trusted, the recursion only
         follows changes.
         """
-        from thermogym.fitresult import load_fit
-
         f = load_fit(fit)
         if f.model != "foptd":
             raise ConfigError(f"from_fit needs a 'foptd' FitResult, got {f.model!r}")

@@ -49,6 +49,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
+from thermogym._checks import probability
 from thermogym.errors import ConfigError, ShapeError
 from thermogym.recording import Recording
 
@@ -396,8 +397,7 @@ def problem_uncertainty(
     -------
     ParameterUncertainty
     """
-    if not (0.0 < level < 1.0):
-        raise ConfigError(f"level is {level!r}, expected a confidence level in (0, 1)")
+    probability("level", level, error=ConfigError, text=False)
     zz = np.asarray(z, dtype=float).reshape(-1)
     if J is None or r is None:
         r, J, _ = problem.jacobian(zz, method=jac, diff="central")

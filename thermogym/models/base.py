@@ -497,6 +497,15 @@ class Model(ABC):
         -------
         Simulation
         """
+        th, ua = self._simulation_batch(u, dt, theta)
+        x = self._initial_array(x0, th, ua)
+        y, xs = self._simulate(th, ua, float(dt), x, return_states)
+        return self._simulation_result(th, ua, dt, y, xs, t0=t0, strict=strict)
+
+    def _simulation_batch(
+        self, u: ArrayLike, dt: float, theta: ThetaLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Checked parameter batch (B, P) and exogenous batch (B, T, n_u) of :meth:`simulate`."""
         if not (np.isfinite(dt) and dt > 0):
             raise ShapeError(f"dt is {dt!r}, expected a positive sample period in seconds")
         th = self.theta(theta)
@@ -511,6 +520,13 @@ class Model(ABC):
             ua = np.broadcast_to(ua, (B, *ua.shape[1:]))
         elif not ua.flags.c_contiguous:
             ua = np.ascontiguousarray(ua)
+        return th, ua
+
+    def _initial_array(
+        self, x0: ArrayLike | None, th: NDArray[np.float64], ua: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Initial state batch (B, n_x): :meth:`initial_state` or the given ``x0``."""
+        B = th.shape[0]
         if x0 is None:
             x = self.initial_state(th, ua[:, 0, :])
         else:
@@ -522,7 +538,21 @@ class Model(ABC):
                     f"x0 has shape {x.shape}, expected ({len(self._state_names)},) or "
                     f"({B}, {len(self._state_names)}) for states {list(self._state_names)}"
                 )
-        y, xs = self._simulate(th, ua, float(dt), np.ascontiguousarray(x), return_states)
+        return np.ascontiguousarray(x)
+
+    def _simulation_result(
+        self,
+        th: NDArray[np.float64],
+        ua: NDArray[np.float64],
+        dt: float,
+        y: NDArray[np.float64],
+        xs: NDArray[np.float64] | None,
+        *,
+        t0: float,
+        strict: bool,
+        meta: Mapping[str, Any] | None = None,
+    ) -> Simulation:
+        """Wrap kernel outputs in a :class:`Simulation` (non-finite check when ``strict``)."""
         if strict and not np.isfinite(y).all():
             b = int(np.argwhere(~np.isfinite(y))[0][0])
             raise SimulationError(
@@ -540,7 +570,12 @@ class Model(ABC):
             input_names=self.exogenous_names,
             states=xs,
             state_names=self._state_names,
-            meta={"model": self.name, "model_version": self.version, "dt": float(dt)},
+            meta={
+                "model": self.name,
+                "model_version": self.version,
+                "dt": float(dt),
+                **dict(meta or {}),
+            },
         )
 
     def n_substeps(self, dt: float) -> int:

@@ -31,11 +31,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError
-from thermogym.models.base import Model
+from thermogym.models.base import Model, Parameter
 from thermogym.models.thermal_network import (
     NetworkArrays,
     ThermalNetworkModel,
     _discretise,
+    lti_simulate,
     network_matrices,
 )
 
@@ -280,8 +281,6 @@ class ExtraNodeNetwork(Model):
     """
 
     def __init__(self, plant: ThermalNetworkModel, node: str, bounds: Any = None) -> None:
-        from thermogym.models.base import Parameter
-
         if not isinstance(plant, ThermalNetworkModel):
             raise ConfigError(f"an extra node needs a thermal network, not {plant.name!r}")
         if plant.effects:
@@ -348,8 +347,6 @@ class ExtraNodeNetwork(Model):
         return Ad, Bd, net
 
     def _simulate(self, theta, u, dt, x0, return_states):
-        from thermogym.models.thermal_network import lti_simulate
-
         Ad, Bd, net = self._discrete(theta, dt)
         B = theta.shape[0]
         U = np.ascontiguousarray(np.broadcast_to(u, (B, *u.shape[1:])))

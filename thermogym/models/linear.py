@@ -38,9 +38,9 @@ next::
 
 so ``b1 + b2 = K (1 − a)`` and ``f = 0`` gives (9) back.
 
-FOPTD outputs are *deviations from the initial value* (the paper subtracts the
-initial temperatures, because a linear model gives zero output for zero input);
-``offsets=True`` adds one parameter ``y0_<out>`` per output that is added to it.
+FOPTD outputs are deviations (the paper subtracts the initial temperatures,
+because a linear model gives zero output for zero input); ``offsets=True``
+adds one parameter ``y0_<out>`` per output that is added to it.
 
 Parameters
 ----------
@@ -64,23 +64,47 @@ exogenous signal. State-space bounds are ``v ± (10|v| + 1)`` around the
 nominal ``v``; FOPTD bounds are ``K ± (10|K| + 1)``, ``T ∈ [T/1000, 1000 T]``,
 ``τ ∈ [0, 10 max(τ, T)]``; provenance "identified".
 
+Operating Point and Sample Period
+---------------------------------
+Both models are linear about an operating point ``(u_op, y_op)`` (constructor
+arguments ``u_op`` and, for the state space, ``y_op``; FOPTD's output offset
+is its parameter ``y0``): they map ``u − u_op`` to ``y − y_op``, in every
+simulation path (:meth:`~StateSpaceModel.simulate`, ``step``/``output`` for
+environments, :meth:`StateSpaceModel.predict`, the initial-state estimates).
+A FitResult stores it in ``model_config``, so ``fit.build_model()`` applies it.
+
+A state space built with ``dt=None`` (the default) steps once per sample of
+whatever data it is simulated on, at any positive period (e.g. 1228.8 s); one
+built with a period is resampled exactly to any other period
+(:meth:`StateSpaceModel.at_period`). FOPTD parameters are continuous and are
+discretised exactly at the period of the data.
+
 Starting State
 --------------
-State space: ``x0 = 0`` by default; ``steady_start=True`` starts at the steady
-state of the first input sample, ``x0 = (I − A)^{-1} B u[0]``; ``fit_x0=True``
-takes ``x0`` from the parameters ``x0_r`` (so optimisers fit it). Measured data
-rarely start at rest: :meth:`StateSpaceModel.estimate_x0` estimates ``x0`` by
-least squares on the free response.
+``simulate(..., x0=MODE)`` with ``MODE`` one of :data:`X0_MODES`:
 
-FOPTD: every lag at zero and no input before ``t = 0`` by default (the paper's
-deviation form); ``steady_start=True`` starts every lag at ``K u[0]`` with the
-input constant at ``u[0]`` before ``t = 0``. For step-wise use (environments)
-the state holds the last ``history`` input samples, enough for delays up to
-``history·Δt`` (see :class:`FOPTDModel`).
+* ``"zero"``: at rest at the operating point (state space ``x = 0``; FOPTD
+  lags zero and the input at ``u_op`` before ``t = 0``);
+* ``"steady"``: settled at the first input sample (``x = (I − A)^{-1} B
+  (u[0] − u_op)``; FOPTD lags at ``K (u[0] − u_op)``, input ``u[0]`` before);
+* ``"estimate"``: least squares on the measured outputs ``y`` given the
+  inputs (:meth:`StateSpaceModel.estimate_x0`, :meth:`FOPTDModel.estimate_x0`
+  — the lags and the input held during the delay before ``t = 0``). Measured
+  data rarely start at rest; this is what MATLAB's ``compare`` does.
+
+Without ``x0`` the model's default: state space ``x = 0``,
+``steady_start=True`` the steady state, ``fit_x0=True`` the parameters
+``x0_r`` (so optimisers fit it); FOPTD at rest at ``u_op``, or steady with
+``steady_start=True``. An explicit state array is used as it is (FOPTD: the
+input before ``t = 0`` is ``u[0]`` with ``steady_start``, else ``u_op``). For
+step-wise use (environments) the FOPTD state holds the last ``history`` input
+samples, enough for delays up to ``history·Δt`` (see :class:`FOPTDModel`).
 
 Version History
 ---------------
-* v1: initial release.
+* v1: initial release. The operating point, ``dt=None`` and the ``x0``
+  modes were added later without a version change: models stored in
+  FitResults (which always name their ``dt``) simulate as before.
 """
 
 from __future__ import annotations
@@ -96,7 +120,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from thermogym.errors import ConfigError, ParameterError, ShapeError, SimulationError
-from thermogym.models.base import Model, Parameter, Signal, ThetaLike
+from thermogym.models.base import Model, Parameter, Signal, Simulation, ThetaLike
 
 __all__ = [
     "MODELS",
@@ -173,17 +197,35 @@ def _wide(v: float) -> tuple[float, float]:
     return v - w, v + w
 
 
-def _substeps(dt: float, model_dt: float, what: str) -> int:
+def _period(dt: float, what: str) -> float:
     if not (np.isfinite(dt) and dt > 0):
-        raise ShapeError(f"dt is {dt!r}, expected a positive sample period in seconds")
-    r = dt / model_dt
-    n = round(r)
-    if n < 1 or abs(r - n) > 1e-9 * max(r, 1.0):
+        raise ShapeError(f"{what}: dt is {dt!r}, expected a positive sample period in seconds")
+    return float(dt)
+
+
+def _vector(
+    name: str, value: ArrayLike | None, names: Sequence[str], what: str
+) -> NDArray[np.float64]:
+    """An operating-point vector: one finite value per named signal (zeros when None)."""
+    n = len(names)
+    if value is None:
+        return np.zeros(n)
+    if isinstance(value, Mapping):
+        unknown = sorted(set(value) - set(names))
+        if unknown:
+            raise ConfigError(f"{name} names {unknown}, which are not {what} {list(names)}")
+        value = [value.get(c, 0.0) for c in names]
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0:
+        a = np.full(n, float(a))
+    if a.shape != (n,):
         raise ShapeError(
-            f"{what}: dt is {dt!r} s but the model is discrete with dt = {model_dt!r} s; "
-            "expected dt equal to the model's or an integer multiple of it"
+            f"{name} has shape {a.shape}, expected ({n},): one value per {what} {list(names)}"
         )
-    return int(n)
+    if not np.isfinite(a).all():
+        j = int(np.argmax(~np.isfinite(a)))
+        raise ParameterError(f"{name} of {names[j]!r} is {a[j]!r}; expected a finite number")
+    return a
 
 
 def _y_batch(y: ArrayLike, p: int, T: int, names: Sequence[str]) -> NDArray[np.float64]:
@@ -243,6 +285,145 @@ def _broadcast_batch(*arrays: NDArray[np.float64]) -> list[NDArray[np.float64]]:
         raise ShapeError(f"batch sizes {sorted(sizes)} differ; expected equal sizes or 1")
     B = sizes.pop() if sizes else 1
     return [np.ascontiguousarray(np.broadcast_to(a, (B, *a.shape[1:]))) for a in arrays]
+
+
+#: Initial-state modes of the generic linear models (module docstring, "Starting State").
+X0_MODES: tuple[str, ...] = ("zero", "steady", "estimate")
+
+
+def check_x0_mode(mode: object) -> str:
+    """Return ``mode`` when it is one of :data:`X0_MODES`, else raise :class:`ConfigError`.
+
+    Examples
+    --------
+    >>> from thermogym.models.linear import check_x0_mode
+    >>> check_x0_mode("estimate")
+    'estimate'
+    """
+    if not isinstance(mode, str) or mode not in X0_MODES:
+        raise ConfigError(f"x0 is {mode!r}; expected one of {list(X0_MODES)} or an array")
+    return mode
+
+
+class _LinearModel(Model):
+    """Operating point and initial-state modes shared by the generic linear models.
+
+    Subclasses implement ``_run(theta, u, dt, x0, return_states, pre)`` (``pre``:
+    the exogenous signals held before ``t = 0``, shape (B, m), or None for the
+    model's default), :meth:`operating_point`, ``_start(mode, ...)`` and
+    :meth:`estimate_x0`.
+    """
+
+    def operating_point(
+        self, theta: ThetaLike = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Operating point ``(u_op, y_op)``, shapes (B, m) and (B, p).
+
+        The model maps ``u − u_op`` to ``y − y_op``: at rest with ``u = u_op``
+        its output is ``y_op``.
+        """
+        raise NotImplementedError  # pragma: no cover - every subclass overrides it
+
+    def _simulate(self, theta, u, dt, x0, return_states):
+        return self._run(theta, u, dt, x0, return_states, None)
+
+    def _run(self, theta, u, dt, x0, return_states, pre):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _start(self, mode, theta, u, dt, y):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def start_state(
+        self,
+        mode: str,
+        u: ArrayLike,
+        dt: float,
+        theta: ThetaLike = None,
+        y: ArrayLike | None = None,
+    ) -> NDArray[np.float64]:
+        """Initial state of mode ``"zero"``, ``"steady"`` or ``"estimate"``, shape (B, n_x).
+
+        Parameters
+        ----------
+        mode : {"zero", "steady", "estimate"}
+            ``zero``: at rest at the operating point; ``steady``: in the steady
+            state of the first input sample; ``estimate``: least squares on the
+            measured outputs ``y`` given the inputs (see :meth:`estimate_x0`).
+        u : array_like, shape (T, m) or (B, T, m)
+            Exogenous signals.
+        dt : float
+            Sample period of ``u`` and ``y`` [s].
+        theta : parameter batch, optional
+        y : array_like, shape (T, p) or (B, T, p), optional
+            Measured outputs; needed by ``"estimate"``.
+
+        Returns
+        -------
+        ndarray, shape (B, n_x)
+        """
+        mode = check_x0_mode(mode)
+        th, ua = self._simulation_batch(u, dt, theta)
+        return self._start(mode, th, ua, float(dt), y)[0]
+
+    def simulate(
+        self,
+        u: ArrayLike,
+        dt: float,
+        theta: ThetaLike = None,
+        x0: ArrayLike | str | None = None,
+        *,
+        y: ArrayLike | None = None,
+        t0: float = 0.0,
+        return_states: bool = False,
+        strict: bool = True,
+    ) -> Simulation:
+        """Simulate at any positive period, from a state or an initial-state mode.
+
+        Parameters
+        ----------
+        u : array_like, shape (T, m) or (B, T, m)
+            Exogenous signals in :attr:`exogenous_names` order, held over each
+            sample interval (absolute values: the model subtracts ``u_op``).
+        dt : float
+            Sample period [s]; any positive value.
+        theta : parameter batch, optional
+        x0 : array_like (n_x,) or (B, n_x), {"zero", "steady", "estimate"}, optional
+            Initial state, or how to choose it (module docstring, "Starting
+            State"); :meth:`initial_state` when omitted. ``simulation.meta["x0"]``
+            names the mode used.
+        y : array_like, shape (T, p) or (B, T, p), optional
+            Measured outputs, for ``x0="estimate"`` only.
+        t0 : float
+            Time of the first sample [s].
+        return_states : bool
+        strict : bool
+            Raise on non-finite outputs (default) instead of returning NaN rows.
+
+        Returns
+        -------
+        Simulation
+        """
+        th, ua = self._simulation_batch(u, dt, theta)
+        meta: dict[str, Any] = {}
+        pre = None
+        if isinstance(x0, str):
+            mode = check_x0_mode(x0)
+            x, pre = self._start(mode, th, ua, float(dt), y)
+            meta["x0"] = mode
+        else:
+            if y is not None:
+                raise ConfigError("y (measured outputs) is used only with x0='estimate'")
+            x = self._initial_array(x0, th, ua)
+        yk, xs = self._run(th, ua, float(dt), np.ascontiguousarray(x), return_states, pre)
+        return self._simulation_result(th, ua, dt, yk, xs, t0=t0, strict=strict, meta=meta)
+
+    def _measured(self, y: ArrayLike | None, T: int) -> NDArray[np.float64]:
+        if y is None:
+            raise ConfigError(
+                "x0='estimate' needs the measured outputs y (columns "
+                f"{list(self.output_names)}); without them use 'steady' or 'zero'"
+            )
+        return _y_batch(y, self.n_outputs, T, self.output_names)
 
 
 # ======================================================= state-space kernels
@@ -556,14 +737,16 @@ def d2c_zoh(
 
 
 # ============================================================ StateSpaceModel
-class StateSpaceModel(Model):
+class StateSpaceModel(_LinearModel):
     """Discrete MIMO state space in innovation form (001 eq 3).
 
     ``x[k+1] = A x[k] + B u[k] + K e[k]``, ``y[k] = C x[k] + D u[k] + e[k]``
     with sample period ``dt``. The parameters are the entries of ``A``,
     ``B``, ``C`` and, when enabled, ``D``, ``K`` and ``x0`` (row-major, names
     ``A_r_c``); a batch ``theta`` of shape (B, P) is simulated at once by a
-    compiled loop.
+    compiled loop. With an operating point the model maps ``u − u_op`` to
+    ``y − y_op``: ``x[k+1] = A x[k] + B (u[k] − u_op)``,
+    ``y[k] = y_op + C x[k] + D (u[k] − u_op)``.
 
     Parameters
     ----------
@@ -573,9 +756,14 @@ class StateSpaceModel(Model):
         Column names of the manipulated inputs.
     outputs : sequence of str
         Column names of the outputs.
-    dt : float
-        Sample period [s]. :meth:`simulate` and :meth:`step` accept this
-        period or an integer multiple of it (inputs held over the sub-steps).
+    dt : float, optional
+        Sample period the matrices are discrete at [s]. ``None`` (default):
+        one step of the matrices is one sample of whatever data the model is
+        simulated on (a black-box model identified at the data's period).
+        With a period, :meth:`simulate` and :meth:`step` accept any positive
+        period: an integer multiple holds the input over the sub-steps,
+        any other period uses the exact ZOH resampling of the continuous
+        equivalent (:func:`d2c_zoh`, :func:`c2d_zoh`).
     disturbances : sequence of str
         Column names of exogenous, non-manipulated inputs; they follow the
         inputs as further columns of ``u`` (and of ``B``, ``D``).
@@ -596,7 +784,11 @@ class StateSpaceModel(Model):
     fit_x0 : bool
         Add parameters ``x0_r`` and start every simulation from them.
     steady_start : bool
-        Start from ``(I − A)^{-1} B u[0]`` instead of ``x = 0``.
+        Start from ``(I − A)^{-1} B (u[0] − u_op)`` instead of ``x = 0``.
+    u_op : array_like (m,) or mapping, optional
+        Operating-point inputs (absolute units), zero when omitted.
+    y_op : array_like (p,) or mapping, optional
+        Operating-point outputs (absolute units), zero when omitted.
 
     Raises
     ------
@@ -627,7 +819,7 @@ class StateSpaceModel(Model):
         inputs: Sequence[str] | str = ("u",),
         outputs: Sequence[str] | str = ("y",),
         *,
-        dt: float = 1.0,
+        dt: float | None = None,
         disturbances: Sequence[str] | str = (),
         units: Mapping[str, str] | None = None,
         A: ArrayLike | None = None,
@@ -640,6 +832,8 @@ class StateSpaceModel(Model):
         has_K: bool | None = None,
         fit_x0: bool = False,
         steady_start: bool = False,
+        u_op: ArrayLike | Mapping[str, float] | None = None,
+        y_op: ArrayLike | Mapping[str, float] | None = None,
     ) -> None:
         ins, dis, outs, full_units, signals = _make_signals(
             inputs, disturbances, outputs, units, "state-space model"
@@ -648,14 +842,21 @@ class StateSpaceModel(Model):
             n_states = np.shape(A)[0] if A is not None and np.ndim(A) == 2 else 1
         if int(n_states) != n_states or n_states < 1:
             raise ConfigError(f"n_states is {n_states!r}; expected a positive integer")
-        if not (np.isfinite(dt) and dt > 0):
-            raise ConfigError(f"dt is {dt!r}; expected a positive sample period in seconds")
+        if dt is not None and not (
+            isinstance(dt, int | float | np.integer | np.floating) and np.isfinite(dt) and dt > 0
+        ):
+            raise ConfigError(
+                f"dt is {dt!r}; expected a positive sample period in seconds or None (the "
+                "period of the data)"
+            )
         if fit_x0 and steady_start:
             raise ConfigError("fit_x0 and steady_start both set; choose one starting state")
         n, m, p = int(n_states), len(ins) + len(dis), len(outs)
         exo = ins + dis
-        self.dt = float(dt)
+        self.dt = None if dt is None else float(dt)
         self.n_states, self.n_inputs, self.n_outputs = n, m, p
+        self.u_op = _vector("u_op", u_op, exo, "exogenous signal")
+        self.y_op = _vector("y_op", y_op, outs, "output")
         self._cfg_names = (ins, dis, outs, full_units)
         self.fit_x0, self.steady_start = bool(fit_x0), bool(steady_start)
 
@@ -744,7 +945,7 @@ class StateSpaceModel(Model):
         D: ArrayLike | None = None,
         K: ArrayLike | None = None,
         *,
-        dt: float,
+        dt: float | None = None,
         inputs: Sequence[str] | str | None = None,
         outputs: Sequence[str] | str | None = None,
         **kwargs: Any,
@@ -759,8 +960,8 @@ class StateSpaceModel(Model):
             Feedthrough; ``None`` means ``D = 0`` and no ``D`` parameters.
         K : array_like, shape (n, p), optional
             Innovation gain; ``None`` means no ``K`` parameters.
-        dt : float
-            Sample period [s].
+        dt : float, optional
+            Sample period [s]; ``None``: the period of the data (see the class).
         inputs, outputs : sequence of str, optional
             Signal names; default ``u_0 … u_{m−1}`` and ``y_0 … y_{p−1}``
             (``disturbances`` in ``kwargs`` take the last columns of ``B``).
@@ -879,6 +1080,10 @@ class StateSpaceModel(Model):
             cfg["K"] = mats.K[0].tolist()
         if self.fit_x0:
             cfg["x0"] = self.nominal[self._sl["x0"]].tolist()
+        if np.any(self.u_op != 0):
+            cfg["u_op"] = self.u_op.tolist()
+        if np.any(self.y_op != 0):
+            cfg["y_op"] = self.y_op.tolist()
         return cfg
 
     # ------------------------------------------------------------------ matrices
@@ -1001,6 +1206,10 @@ class StateSpaceModel(Model):
         >>> round(float(m.to_continuous().A[0, 0, 0]), 9)
         -0.01
         """
+        if self.dt is None:
+            raise ConfigError(
+                "to_continuous: the model has no sample period (dt=None); build it with dt"
+            )
         mats = self.matrices(theta)
         pairs = [d2c_zoh(a, b, self.dt) for a, b in zip(mats.A, mats.B, strict=True)]
         return ContinuousStateSpace(
@@ -1008,58 +1217,157 @@ class StateSpaceModel(Model):
         )
 
     # ------------------------------------------------------------------ numerics
+    def operating_point(
+        self, theta: ThetaLike = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Operating point ``(u_op, y_op)``, shapes (B, m) and (B, p).
+
+        Examples
+        --------
+        >>> from thermogym.models.linear import StateSpaceModel
+        >>> m = StateSpaceModel.from_matrices([[0.5]], [[1.0]], [[1.0]], u_op=[2.0], y_op=[20.0])
+        >>> [a.tolist() for a in m.operating_point()]
+        [[[2.0]], [[20.0]]]
+        """
+        B = self.theta(theta).shape[0]
+        return np.tile(self.u_op, (B, 1)), np.tile(self.y_op, (B, 1))
+
+    def at_period(
+        self, dt: float, theta: ThetaLike = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Discrete ``(A, B)`` at sample period ``dt``, shapes (B, n, n) and (B, n, m).
+
+        The model's own matrices when ``dt`` is its period (or the model has
+        none); ``[[A, B], [0, I]]^r`` for an integer ratio ``r = dt / self.dt``
+        (input held over ``r`` steps); otherwise the exact ZOH resampling of the
+        continuous-time equivalent, ``exp(r log [[A, B], [0, I]])``.
+
+        Raises
+        ------
+        SimulationError
+            A non-integer ratio and an ``A`` with no real continuous-time
+            equivalent (an eigenvalue on the non-positive real axis).
+
+        Examples
+        --------
+        >>> from thermogym.models.linear import StateSpaceModel
+        >>> m = StateSpaceModel.from_continuous([[-0.01]], [[0.01]], [[1.0]], dt=10.0)
+        >>> A, B = m.at_period(25.0)
+        >>> round(float(A[0, 0, 0]), 6), round(float(np.exp(-0.25)), 6)
+        (0.778801, 0.778801)
+        """
+        mats = self.matrices(theta)
+        return self._resample(mats.A, mats.B, _period(dt, "at_period"))
+
+    def _resample(
+        self, A: NDArray[np.float64], Bm: NDArray[np.float64], dt: float
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        if self.dt is None:
+            return A, Bm
+        r = dt / self.dt
+        n_int = round(r)
+        n, m = self.n_states, self.n_inputs
+        if n_int >= 1 and abs(r - n_int) <= 1e-9 * max(r, 1.0):
+            if n_int == 1:
+                return A, Bm
+            # [[A, B], [0, I]]^r = [[A^r, Σ_{j<r} A^j B], [0, I]]: input held over r steps
+            M = np.zeros((A.shape[0], n + m, n + m))
+            M[:, :n, :n] = A
+            M[:, :n, n:] = Bm
+            M[:, n:, n:] = np.eye(m)
+            P = np.linalg.matrix_power(M, n_int)
+            return np.ascontiguousarray(P[:, :n, :n]), np.ascontiguousarray(P[:, :n, n:])
+        Ar, Br = np.empty_like(A), np.empty_like(Bm)
+        for b in range(A.shape[0]):
+            try:
+                Ac, Bc = d2c_zoh(A[b], Bm[b], self.dt)
+            except ParameterError as e:
+                raise SimulationError(
+                    f"cannot simulate at dt = {dt!r} s: the model is discrete at dt = "
+                    f"{self.dt!r} s and the period is not a whole multiple of it, and {e}; "
+                    "simulate at a multiple of the model's period"
+                ) from e
+            Ar[b], Br[b] = c2d_zoh(Ac, Bc, dt)
+        return Ar, Br
+
     def initial_state(
         self, theta: NDArray[np.float64], u0: NDArray[np.float64]
     ) -> NDArray[np.float64]:
         """Initial state, shape (B, n): zero, steady at ``u0`` or from ``x0_r``.
 
-        ``steady_start=True``: ``x0 = (I − A)^{-1} B u0``; ``fit_x0=True``: the
-        parameters ``x0_r``; otherwise zero.
+        ``steady_start=True``: ``x0 = (I − A)^{-1} B (u0 − u_op)``;
+        ``fit_x0=True``: the parameters ``x0_r``; otherwise zero (at rest at the
+        operating point).
         """
         th = np.atleast_2d(theta)
         Bt = max(th.shape[0], np.atleast_2d(u0).shape[0])
         if self.fit_x0:
             return np.ascontiguousarray(np.broadcast_to(th[:, self._sl["x0"]], (Bt, self.n_states)))
         if self.steady_start:
-            mats = self.matrices(th)
-            A, Bm, u0b = _broadcast_batch(mats.A, mats.B, np.atleast_2d(u0))
-            Bu = np.einsum("bnm,bm->bn", Bm, u0b)[..., None]
-            return np.ascontiguousarray(self._steady(A, Bu)[..., 0])
+            return self._steady_state(th, np.atleast_2d(u0))
         return np.zeros((Bt, self.n_states))
 
-    def _simulate(self, theta, u, dt, x0, return_states):
-        nsub = _substeps(dt, self.dt, "simulate")
+    def _steady_state(
+        self, th: NDArray[np.float64], u0: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        mats = self.matrices(th)
+        A, Bm, u0b = _broadcast_batch(mats.A, mats.B, u0 - self.u_op)
+        # x = A x + B (u0 − u_op)  ⇒  x = (I − A)^{-1} B (u0 − u_op), the same at every period
+        Bu = np.einsum("bnm,bm->bn", Bm, u0b)[..., None]
+        return np.ascontiguousarray(self._steady(A, Bu)[..., 0])
+
+    def _start(self, mode, theta, u, dt, y):
+        Bt = theta.shape[0]
+        if mode == "zero":
+            return np.zeros((Bt, self.n_states)), None
+        if mode == "steady":
+            return self._steady_state(theta, u[:, 0, :]), None
+        ya = self._measured(y, u.shape[1])
+        return self.estimate_x0(u, ya, theta, dt=dt), None
+
+    def _deviation(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``u − u_op`` (the array itself when the operating point is zero)."""
+        if not np.any(self.u_op != 0):
+            return u
+        return u - self.u_op
+
+    def _run(self, theta, u, dt, x0, return_states, pre):
         mats = self.matrices(theta)
+        A, Bm = self._resample(mats.A, mats.B, dt)
         Bt, T = mats.A.shape[0], u.shape[1]
         y = np.empty((Bt, T, self.n_outputs))
         xs = np.empty((Bt, T, self.n_states)) if return_states else np.empty((1, 1, 1))
         _ss_simulate_kernel(
-            *(_transposed(a) for a in (mats.A, mats.B, mats.C, mats.D)),
-            _compact(u),
+            *(_transposed(a) for a in (A, Bm, mats.C, mats.D)),
+            _compact(self._deviation(u)),
             np.ascontiguousarray(x0),
-            nsub,
+            1,
             y,
             xs,
             return_states,
         )
+        if np.any(self.y_op != 0):
+            y += self.y_op
         return y, (xs if return_states else None)
 
     def _step(self, x, u, theta, dt):
-        nsub = _substeps(dt, self.dt, "step")
         mats = self.matrices(theta)
-        x, u, A, Bm = _broadcast_batch(x, u, mats.A, mats.B)
+        A, Bm = self._resample(mats.A, mats.B, _period(dt, "step"))
+        x, u, A, Bm = _broadcast_batch(x, u, A, Bm)
         self._check_step_shapes(x, u)
-        for _ in range(nsub):
-            # x[k+1] = A x[k] + B u[k]                     (3) in 001_6d13a2cd04f5de5e.txt
-            x = np.einsum("bij,bj->bi", A, x) + np.einsum("bij,bj->bi", Bm, u)
-        return x
+        # x[k+1] = A x[k] + B (u[k] − u_op)                (3) in 001_6d13a2cd04f5de5e.txt
+        return np.einsum("bij,bj->bi", A, x) + np.einsum("bij,bj->bi", Bm, self._deviation(u))
 
     def _output(self, x, u, theta):
         mats = self.matrices(theta)
         x, u, C, D = _broadcast_batch(x, u, mats.C, mats.D)
         self._check_step_shapes(x, u)
-        # y[k] = C x[k] + D u[k]                           (3) in 001_6d13a2cd04f5de5e.txt
-        return np.einsum("bij,bj->bi", C, x) + np.einsum("bij,bj->bi", D, u)
+        # y[k] = y_op + C x[k] + D (u[k] − u_op)           (3) in 001_6d13a2cd04f5de5e.txt
+        return (
+            self.y_op
+            + np.einsum("bij,bj->bi", C, x)
+            + np.einsum("bij,bj->bi", D, self._deviation(u))
+        )
 
     def _check_step_shapes(self, x: NDArray[np.float64], u: NDArray[np.float64]) -> None:
         if x.shape[1] != self.n_states:
@@ -1114,9 +1422,10 @@ class StateSpaceModel(Model):
         u : array_like, shape (T, m) or (B, T, m)
             Exogenous signals, sampled at the model's ``dt``.
         theta : parameter batch, optional
-        x0 : array_like (n,) or (B, n), "estimate" or None
-            Initial predictor state; ``None``: :meth:`initial_state`;
-            ``"estimate"``: :meth:`estimate_x0` on these data.
+        x0 : array_like (n,) or (B, n), {"zero", "steady", "estimate"} or None
+            Initial predictor state; ``None``: :meth:`initial_state`; a mode
+            as in :meth:`simulate` (``"estimate"``: :meth:`estimate_x0` on
+            these data).
         horizon : int or None
             Prediction horizon in samples (≥ 1), or ``None`` for infinity.
 
@@ -1142,9 +1451,7 @@ class StateSpaceModel(Model):
                 raise ShapeError(f"horizon is {horizon!r}; expected an integer >= 1 or None")
             h = min(int(horizon), T + 1)
         if isinstance(x0, str):
-            if x0 != "estimate":
-                raise ShapeError(f"x0 is {x0!r}; expected an array, 'estimate' or None")
-            xi = self.estimate_x0(ua, ya, th)
+            xi = self._start(check_x0_mode(x0), th, ua, self.dt or 1.0, ya)[0]
         elif x0 is None:
             xi = self.initial_state(th, ua[:, 0, :])
         else:
@@ -1162,7 +1469,11 @@ class StateSpaceModel(Model):
             Ah = np.zeros_like(mats.A)
         AhB = Ah @ mats.B
         out = np.empty((Bt, T, self.n_outputs))
-        _ss_predict_kernel(*(_transposed(a) for a in (*mats, Ah, AhB)), ua, ya, xi, h, out)
+        du = _compact(self._deviation(ua))
+        dy = _compact(ya - self.y_op) if np.any(self.y_op != 0) else ya
+        _ss_predict_kernel(*(_transposed(a) for a in (*mats, Ah, AhB)), du, dy, xi, h, out)
+        if np.any(self.y_op != 0):
+            out += self.y_op
         return out
 
     def estimate_x0(
@@ -1171,24 +1482,28 @@ class StateSpaceModel(Model):
         y: ArrayLike,
         theta: ThetaLike = None,
         *,
+        dt: float | None = None,
         max_samples: int | None = None,
     ) -> NDArray[np.float64]:
         """Least-squares initial state from measured data (free response).
 
         ``y[k] − y_forced[k] = C A^k x0`` where ``y_forced`` is the response to
-        ``u`` from ``x = 0``; ``x0`` minimises the sum of squares over all
-        samples (NaN samples of ``y`` are skipped). The tall system is reduced
-        chunk by chunk with QR (never formed in full), and the loop stops once
+        ``u`` from ``x = 0`` (operating point included); ``x0`` minimises the
+        sum of squares over all samples (NaN samples of ``y`` are skipped). The
+        tall system is reduced chunk by chunk with QR (never formed in full),
+        and the loop stops once
         ``C A^k`` has decayed below round-off. Unobservable directions get the
         minimum-norm value (zero).
 
         Parameters
         ----------
         u : array_like, shape (T, m) or (B, T, m)
-            Exogenous signals, sampled at the model's ``dt``.
+            Exogenous signals.
         y : array_like, shape (T, p) or (B, T, p)
             Measured outputs.
         theta : parameter batch, optional
+        dt : float, optional
+            Sample period of ``u`` and ``y`` [s]; default the model's own.
         max_samples : int, optional
             Use only the first ``max_samples`` samples.
 
@@ -1215,14 +1530,16 @@ class StateSpaceModel(Model):
             ya = ya[:, : int(max_samples)]
         Bt, T = th.shape[0], ua.shape[1]
         n = self.n_states
+        period = _period(self.dt or 1.0 if dt is None else dt, "estimate_x0")
         zero = np.zeros((Bt, n))
-        forced, _ = self._simulate(th, ua, self.dt, zero, False)
+        forced, _ = self._run(th, ua, period, zero, False, None)
         r = ya - forced
         mats = self.matrices(th)
+        A_dt, _ = self._resample(mats.A, mats.B, period)
         chunk = max(64, 8192 // max(1, self.n_outputs))
         x0 = np.empty((Bt, n))
         for b in range(Bt):
-            A = np.ascontiguousarray(mats.A[b])
+            A = np.ascontiguousarray(A_dt[b])
             M = np.array(mats.C[b], dtype=float, copy=True)
             R = np.zeros((0, n + 1))
             scale = 0.0
@@ -1468,7 +1785,7 @@ def _foptd_kernel(a, b1, b2, d, y0, u, hist, pre, z0, y, zs, keep):  # pragma: n
                     z = aa * z + c1 * u1 + c2 * u2
 
 
-class FOPTDModel(Model):
+class FOPTDModel(_LinearModel):
     """Set of first-order-plus-time-delay transfer functions (000 eqs 7-8).
 
     Output ``j`` is ``y0_j + Σ_i y_ji`` with ``Y_ji(s) = K_ji e^{−τ_ji s} /
@@ -1504,7 +1821,12 @@ class FOPTDModel(Model):
         with ``steady_start``, or the oldest stored sample when
         ``history > 0``).
     steady_start : bool
-        Start every lag at ``K u[0]`` with the input constant before ``t = 0``.
+        Start every lag at ``K (u[0] − u_op)`` with the input constant before
+        ``t = 0``.
+    u_op : array_like (m,) or mapping, optional
+        Operating-point inputs (absolute units), zero when omitted: the lags
+        are driven by ``u − u_op``, so ``y0`` is the output at rest at
+        ``u = u_op``.
 
     Examples
     --------
@@ -1537,6 +1859,7 @@ class FOPTDModel(Model):
         y0: ArrayLike = 0.0,
         history: int = 0,
         steady_start: bool = False,
+        u_op: ArrayLike | Mapping[str, float] | None = None,
     ) -> None:
         ins, dis, outs, full_units, signals = _make_signals(
             inputs, disturbances, outputs, units, "FOPTD model"
@@ -1581,6 +1904,7 @@ class FOPTDModel(Model):
             raise ConfigError(f"history is {history!r}; expected a whole number of samples >= 0")
 
         self.n_inputs, self.n_outputs = m, p
+        self.u_op = _vector("u_op", u_op, exo, "exogenous signal")
         self.offsets, self.history, self.steady_start = (
             bool(offsets),
             int(history),
@@ -1675,6 +1999,8 @@ class FOPTDModel(Model):
         }
         if self.offsets:
             cfg["y0"] = self.nominal[self._iy0].tolist()
+        if np.any(self.u_op != 0):
+            cfg["u_op"] = self.u_op.tolist()
         return cfg
 
     # ----------------------------------------------------------------- accessors
@@ -1741,44 +2067,218 @@ class FOPTDModel(Model):
                     "must be >= 0"
                 )
 
+    def operating_point(
+        self, theta: ThetaLike = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Operating point ``(u_op, y_op)``, shapes (B, m) and (B, p); ``y_op = y0``.
+
+        Examples
+        --------
+        >>> from thermogym.models.linear import FOPTDModel
+        >>> m = FOPTDModel(K=2.0, offsets=True, y0=20.0, u_op=[5.0])
+        >>> [a.tolist() for a in m.operating_point()]
+        [[[5.0]], [[20.0]]]
+        """
+        th = self.theta(theta)
+        return np.tile(self.u_op, (th.shape[0], 1)), self._offsets(th)
+
     def initial_state(
         self, theta: NDArray[np.float64], u0: NDArray[np.float64]
     ) -> NDArray[np.float64]:
-        """Zero lags and input history, or (``steady_start``) ``K u0`` and ``u0``."""
+        """Lags and input history at rest at ``u_op``, or (``steady_start``) at ``u0``.
+
+        Rest: lags zero, history ``u_op``; steady: lags ``K (u0 − u_op)``,
+        history ``u0``.
+        """
         th = np.atleast_2d(theta)
         u0 = np.atleast_2d(u0)
-        Bt = max(th.shape[0], u0.shape[0])
-        p, m, H = self.n_outputs, self.n_inputs, self.history
-        x = np.zeros((Bt, p * m + H * m))
         if self.steady_start:
-            K = th[:, self._iK]
-            x[:, : p * m] = (K * u0[:, None, :]).reshape(-1, p * m)
-            x[:, p * m :] = np.tile(u0, (1, H))
+            return self._lags_state(th, u0, self._steady_lags(th, u0))
+        Bt = max(th.shape[0], u0.shape[0])
+        return self._lags_state(th, np.tile(self.u_op, (Bt, 1)), None)
+
+    def _steady_lags(self, th: NDArray[np.float64], u0: NDArray[np.float64]) -> NDArray[np.float64]:
+        K = th[:, self._iK]
+        p, m = self.n_outputs, self.n_inputs
+        return (K * (u0 - self.u_op)[:, None, :]).reshape(-1, p * m)
+
+    def _lags_state(
+        self,
+        th: NDArray[np.float64],
+        held: NDArray[np.float64],
+        lags: NDArray[np.float64] | None,
+    ) -> NDArray[np.float64]:
+        """State (B, n_x) with the given lags (zero when None) and the history at ``held``."""
+        p, m, H = self.n_outputs, self.n_inputs, self.history
+        Bt = max(th.shape[0], held.shape[0], 1 if lags is None else lags.shape[0])
+        x = np.zeros((Bt, p * m + H * m))
+        if lags is not None:
+            x[:, : p * m] = lags
+        if H:
+            x[:, p * m :] = np.tile(held, (1, H))
         return x
 
-    def _simulate(self, theta, u, dt, x0, return_states):
+    def _start(self, mode, theta, u, dt, y):
+        u0 = np.ascontiguousarray(u[:, 0, :])
+        if mode == "zero":
+            held = np.tile(self.u_op, (theta.shape[0], 1))
+            return self._lags_state(theta, held, None), held
+        if mode == "steady":
+            return self._lags_state(theta, u0, self._steady_lags(theta, u0)), u0
+        ya = self._measured(y, u.shape[1])
+        return self._estimate(theta, u, ya, dt)
+
+    def estimate_x0(
+        self,
+        u: ArrayLike,
+        y: ArrayLike,
+        theta: ThetaLike = None,
+        *,
+        dt: float,
+        max_samples: int | None = None,
+    ) -> NDArray[np.float64]:
+        """Least-squares initial lags and held input from measured data.
+
+        The initial state of a delayed lag is its value and the input during
+        the delay before ``t = 0``. The input is taken constant there (at
+        ``u[0] + δ``); the output is then the forced response plus the free
+        response of the lags, ``Σ_i a_ji^k z_ji(0)`` with ``a = e^{−Δt/T}``,
+        plus the response to ``δ``; ``z(0)`` and ``δ`` minimise the squared
+        error over the samples (NaN samples of ``y`` skipped). ``δ_i`` is
+        estimated only for inputs whose delay spans two samples or more (else
+        ``δ = 0``: the input before the start is ``u[0]``, the guess for a
+        recording that starts mid-operation); lags of one output with the same
+        time constant share their value (the minimum-norm solution).
+        :meth:`simulate` with ``x0="estimate"`` uses the same estimate.
+
+        Parameters
+        ----------
+        u : array_like, shape (T, m) or (B, T, m)
+            Exogenous signals (absolute).
+        y : array_like, shape (T, p) or (B, T, p)
+            Measured outputs (absolute).
+        theta : parameter batch, optional
+        dt : float
+            Sample period [s].
+        max_samples : int, optional
+            Use only the first ``max_samples`` samples.
+
+        Returns
+        -------
+        ndarray, shape (B, n_x)
+            Lags, then the input history (the held input before ``t = 0``).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from thermogym.models.linear import FOPTDModel
+        >>> m = FOPTDModel(K=2.0, T=30.0, tau=4.0, offsets=True, y0=10.0, steady_start=True)
+        >>> u = np.ones((200, 1))
+        >>> y = m.simulate(u, 1.0, x0=[5.0]).outputs[0]  # 3 above the steady state at u = 1
+        >>> m.estimate_x0(u, y, dt=1.0).round(6).tolist()
+        [[5.0]]
+        """
+        th = self.theta(theta)
+        ua = _u_batch(u, self.exogenous_names)
+        ya = _y_batch(y, self.n_outputs, ua.shape[1], self.output_names)
+        if max_samples is not None:
+            if int(max_samples) != max_samples or max_samples < 1:
+                raise ShapeError(f"max_samples is {max_samples!r}; expected an integer >= 1")
+            ua, ya = ua[:, : int(max_samples)], ya[:, : int(max_samples)]
+        sizes = {th.shape[0], ua.shape[0], ya.shape[0]} - {1}
+        if len(sizes) > 1:
+            raise ShapeError(
+                f"batch sizes differ: theta {th.shape[0]}, u {ua.shape[0]}, y {ya.shape[0]}; "
+                "expected equal sizes or 1"
+            )
+        Bt = sizes.pop() if sizes else 1
+        th = np.ascontiguousarray(np.broadcast_to(th, (Bt, th.shape[1])))
+        ua = np.ascontiguousarray(np.broadcast_to(ua, (Bt, *ua.shape[1:])))
+        return self._estimate(th, ua, ya, _period(dt, "estimate_x0"))[0]
+
+    def _estimate(
+        self,
+        th: NDArray[np.float64],
+        ua: NDArray[np.float64],
+        ya: NDArray[np.float64],
+        dt: float,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Initial state (B, n_x) and held input before the start (B, m) by least squares."""
+        Bt, T = th.shape[0], ua.shape[1]
+        p, m = self.n_outputs, self.n_inputs
+        nq = p * m
+        ua = np.ascontiguousarray(np.broadcast_to(ua, (Bt, T, m)))
+        u0 = np.ascontiguousarray(ua[:, 0, :])
+        zero = self._lags_state(th, u0, None)
+        forced, _ = self._run(th, ua, dt, zero, False, u0)
+        r = ya - forced  # (B, T, p)
+        ok = np.isfinite(r)
+        r = np.where(ok, r, 0.0)
+        a, _, b2, d = foptd_zoh(*self.pair_parameters(th), dt)  # (B, p, m)
+        # inputs whose held value before the start reaches the output over >= 2 samples
+        span = (d + (b2 != 0)).max(axis=(0, 1))
+        free = [i for i in range(m) if span[i] >= 2]
+        # response of every output to a unit step of input i held before t = 0 (from rest)
+        rest = np.ascontiguousarray(np.broadcast_to(self.u_op, (Bt, T, m)))
+        pulse = np.empty((Bt, T, p, len(free)))
+        for c, i in enumerate(free):
+            held = np.tile(self.u_op, (Bt, 1))
+            held[:, i] += 1.0
+            yi, _ = self._run(th, rest, dt, self._lags_state(th, held, None), False, held)
+            pulse[:, :, :, c] = yi - self._offsets(th)[:, None, :]
+        nf = len(free)
+        n_unk = nq + nf
+        G = np.zeros((Bt, n_unk, n_unk))
+        rhs = np.zeros((Bt, n_unk))
+        chunk = 8192
+        for k0 in range(0, T, chunk):
+            k = np.arange(k0, min(T, k0 + chunk), dtype=float)
+            for j in range(p):
+                w = ok[:, k0 : k0 + k.size, j]
+                # columns of output j: free responses a_ji^k of its lags, then the held inputs
+                Phi = (
+                    np.concatenate(
+                        [a[:, j, None, :] ** k[None, :, None], pulse[:, k0 : k0 + k.size, j, :]],
+                        axis=2,
+                    )
+                    * w[:, :, None]
+                )
+                idx = np.r_[np.arange(j * m, (j + 1) * m), nq + np.arange(nf)].astype(np.int64)
+                G[:, idx[:, None], idx[None, :]] += np.einsum("bki,bkl->bil", Phi, Phi)
+                rhs[:, idx] += np.einsum("bki,bk->bi", Phi, r[:, k0 : k0 + k.size, j])
+        sol = np.einsum("bil,bl->bi", np.linalg.pinv(G, rcond=1e-10, hermitian=True), rhs)
+        held = u0.copy()
+        held[:, free] += sol[:, nq:]
+        x = self._lags_state(th, held, sol[:, :nq])
+        return x, held
+
+    def _run(self, theta, u, dt, x0, return_states, pre):
         Bt, T = theta.shape[0], u.shape[1]
         p, m, H = self.n_outputs, self.n_inputs, self.history
         nq = p * m
         a, b1, b2, d = foptd_zoh(*self.pair_parameters(theta), dt)
         hist = np.ascontiguousarray(x0[:, nq:].reshape(Bt, H, m))
-        if H > 0:
+        if pre is not None:
+            pre = np.ascontiguousarray(np.broadcast_to(pre, (Bt, m)))
+        elif H > 0:
             pre = hist[:, H - 1, :].copy()
         elif self.steady_start:
             pre = np.ascontiguousarray(np.broadcast_to(u[:, 0, :], (Bt, m)))
         else:
-            pre = np.zeros((Bt, m))
+            pre = np.tile(self.u_op, (Bt, 1))
         y = np.empty((Bt, T, p))
         zs = np.empty((Bt, T, nq)) if return_states else np.empty((1, 1, 1))
+        shift = np.any(self.u_op != 0)
+        # the lags see u − u_op (the kernel's inputs, history and pre-start values)
         _foptd_kernel(
             a,
             b1,
             b2,
             np.ascontiguousarray(d),
             np.ascontiguousarray(self._offsets(theta)),
-            _compact(u),
-            hist,
-            pre,
+            _compact(u - self.u_op if shift else u),
+            np.ascontiguousarray(hist - self.u_op) if shift else hist,
+            pre - self.u_op if shift else pre,
             np.ascontiguousarray(x0[:, :nq]),
             y,
             zs,
@@ -1803,7 +2303,7 @@ class FOPTDModel(Model):
             raise ShapeError(
                 f"x has shape {x.shape} and u {u.shape}, expected (B, {nq + H * m}) and (B, {m})"
             )
-        a, b1, b2, d = foptd_zoh(*self.pair_parameters(th), dt)
+        a, b1, b2, d = foptd_zoh(*self.pair_parameters(th), _period(dt, "step"))
         need = d + (b2 != 0)
         if (need > H).any():
             j, i = np.argwhere((need > H).any(axis=0))[0]
@@ -1816,12 +2316,13 @@ class FOPTDModel(Model):
         # lagged inputs: lag 0 is the current u[k], lag h the stored u[k−h]
         Bt = x.shape[0]
         lagged = np.concatenate([u[:, None, :], x[:, nq:].reshape(Bt, H, m)], axis=1)
+        dev = lagged - self.u_op
         bi = np.arange(Bt)[:, None, None]
         ii = np.arange(m)[None, None, :]
-        u1 = lagged[bi, np.minimum(d, H), ii]
-        u2 = lagged[bi, np.minimum(d + 1, H), ii]
+        u1 = dev[bi, np.minimum(d, H), ii]
+        u2 = dev[bi, np.minimum(d + 1, H), ii]
         z = x[:, :nq].reshape(Bt, p, m)
-        # y[k+1] = a y[k] + b1 u[k−d] + b2 u[k−d−1]      exact ZOH of (8)
+        # y[k+1] = a y[k] + b1 (u[k−d] − u_op) + b2 (u[k−d−1] − u_op)   exact ZOH of (8)
         xn = np.empty_like(x)
         xn[:, :nq] = (a * z + b1 * u1 + np.where(b2 != 0, b2 * u2, 0.0)).reshape(Bt, nq)
         xn[:, nq:] = lagged[:, :H].reshape(Bt, H * m)

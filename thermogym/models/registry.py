@@ -25,6 +25,7 @@ def register_model(name: str, factory: Callable[..., Model]) -> None:
 def _load_builtin() -> None:
     if _FACTORIES:
         return
+    # built-in models load on first use: the registry imports cheaply
     from thermogym.models import axt211
 
     register_model("axt211", axt211.AXT211)

@@ -37,9 +37,9 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
-from threadpoolctl import ThreadpoolController
 
 from thermogym.errors import ConfigError
+from thermogym.models._blas import blas_threads
 from thermogym.models._effects import EffectLayout, PhysicalEffect
 from thermogym.models.base import Model, Parameter, Signal
 
@@ -174,9 +174,6 @@ def network_matrices(
     return A, Bm
 
 
-_BLAS: ThreadpoolController | None = None
-
-
 def _discretise(
     A: NDArray[np.float64], Bm: NDArray[np.float64], dt: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -186,13 +183,9 @@ def _discretise(
     M[:, :n, :n] = A * dt
     M[:, :n, n:] = Bm * dt
     # Small matrices: multithreaded BLAS only adds overhead (10x slower measured on 20x20
-    # batches), so the matrix exponential runs on one thread. One controller is reused:
-    # building one scans the process's shared libraries (~6 ms, measured), and an
-    # identification or diagnosis discretises thousands of times.
-    global _BLAS
-    if _BLAS is None:
-        _BLAS = ThreadpoolController()
-    with _BLAS.limit(limits=1, user_api="blas"):
+    # batches), so the matrix exponential runs on one thread (the limiter reuses one
+    # threadpoolctl controller: an identification or diagnosis discretises thousands of times).
+    with blas_threads(1):
         E = expm(M)
     return np.ascontiguousarray(E[:, :n, :n]), np.ascontiguousarray(E[:, :n, n:])
 

@@ -184,6 +184,7 @@ def load_external(
     (array([19.634, 20.   ]), [None, None])
     >>> model.close()
     """
+    # on first use, like the adapters (PEP 562 above)
     from thermogym.identification.external.config import read_config
 
     return build_model(read_config(config, base_dir=base_dir, **overrides))

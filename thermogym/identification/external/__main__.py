@@ -43,6 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", action="store_true", help="print the report as JSON")
     args = ap.parse_args(argv)
 
+    # after argument parsing: --help answers without pandas
     from thermogym.identification.external import load_external, time_evaluations
     from thermogym.identification.metrics import fit_report
     from thermogym.recording import read_recording, write_recording

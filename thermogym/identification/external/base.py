@@ -103,6 +103,7 @@ class ExternalModel:
         chunksize: int | None = None,
         ray_options: Mapping[str, Any] | None = None,
     ) -> None:
+        # lazy: workers import the adapters and start fast (docstring)
         from thermogym.identification.external.config import (
             EvaluationOptions,
             parse_parameters,
@@ -370,6 +371,7 @@ class ExternalModel:
             Recording column → values (B, T) that replace that input column
             for each parameter set.
         """
+        # lazy: workers start without pandas (module docstring)
         from thermogym.identification.simmodel import SimBatch
 
         th = self._theta(theta)
@@ -425,6 +427,7 @@ class ExternalModel:
         ExternalModelError
             The evaluation failed; the message is the model's.
         """
+        # lazy: workers start without pandas (module docstring)
         from thermogym.recording import Recording
 
         unknown = sorted(set(values) - set(self.param_names))

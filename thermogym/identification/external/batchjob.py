@@ -42,6 +42,7 @@ import hashlib
 import io
 import json
 import os
+import shlex
 import shutil
 import signal
 import subprocess
@@ -304,8 +305,6 @@ class BatchJobModel(ExternalModel):
         **evaluation: Any,
     ) -> None:
         if isinstance(command, str):
-            import shlex
-
             command = shlex.split(command)
         words = [str(w) for w in command]
         if not words:

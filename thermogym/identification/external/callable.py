@@ -237,6 +237,7 @@ class CallableModel(ExternalModel):
         """Simulate the batch; one call of ``func`` when ``vectorized``."""
         if not self.vectorized:
             return super().simulate_sets(theta, experiment, input_overrides)
+        # lazy: workers start without pandas (see base)
         from thermogym.identification.simmodel import SimBatch
 
         th = self._theta(theta)

@@ -67,11 +67,14 @@ import json
 import math
 import os
 import re
+import shlex
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import yaml
 
 from thermogym.errors import ConfigError
 from thermogym.identification.external._evaluate import DEFAULT_TIMEOUT
@@ -402,8 +405,6 @@ def _load_file(path: Path) -> dict[str, Any]:
         if text_suffix == ".toml":
             data = tomllib.loads(raw.decode("utf-8"))
         elif text_suffix in (".yaml", ".yml"):
-            import yaml
-
             data = yaml.safe_load(raw.decode("utf-8"))
         elif text_suffix == ".json":
             data = json.loads(raw.decode("utf-8"))
@@ -668,8 +669,6 @@ def _check_options(mtype: str, o: dict[str, Any], base: Path, source: str) -> di
         _require("command")
         cmd = o["command"]
         if isinstance(cmd, str):
-            import shlex
-
             try:
                 cmd = shlex.split(cmd)
             except ValueError as e:

@@ -30,6 +30,7 @@ passed on to the models it feeds.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -39,6 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from thermogym.errors import ConfigError, ParameterError
+from thermogym.identification.external import build_model
 
 if TYPE_CHECKING:
     from thermogym.identification.external.config import ExternalConfig
@@ -195,6 +197,7 @@ class CoSimModel:
         self, prefix: str, th: NDArray[np.float64], experiment: Recording, overrides: dict[str, Any]
     ) -> SimBatch:
         """Simulate a model whose inputs are partly other models' outputs (one set per row)."""
+        # lazy: workers start without pandas (see base)
         from thermogym.identification.simmodel import SimBatch
 
         m = self.models[prefix]
@@ -223,6 +226,7 @@ class CoSimModel:
         SimBatch
             Errors are prefixed with the model's name.
         """
+        # lazy: workers start without pandas (see base)
         from thermogym.identification.simmodel import SimBatch
 
         th = self._theta(theta)
@@ -304,7 +308,7 @@ class CoSimModel:
         evaluation options and time limit given for the co-simulation (or as
         overrides) apply to every sub-model.
         """
-        from thermogym.identification.external import build_model
+        # lazy: workers start without the configuration reader
         from thermogym.identification.external.config import read_config
 
         o = cfg.options
@@ -331,6 +335,4 @@ class CoSimModel:
 
 
 def _with_workdir(cfg: ExternalConfig, workdir: Path) -> ExternalConfig:
-    import dataclasses
-
     return dataclasses.replace(cfg, workdir=workdir)

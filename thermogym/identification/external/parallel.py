@@ -63,6 +63,8 @@ from multiprocessing.connection import Connection
 from multiprocessing.connection import wait as _mp_wait
 from typing import Any
 
+import cloudpickle
+
 from thermogym.errors import ConfigError, ExternalModelError
 from thermogym.identification.external._evaluate import (
     Evaluator,
@@ -113,8 +115,6 @@ def _dumps(evaluator: Evaluator) -> bytes:
     pickle only handles importable ones.
     """
     try:
-        import cloudpickle
-
         dumps = cloudpickle.dumps
     except ImportError:  # pragma: no cover - cloudpickle comes with the package
         dumps = pickle.dumps

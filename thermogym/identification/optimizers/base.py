@@ -22,14 +22,17 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
+from thermogym._checks import finite, positive
 from thermogym.errors import ConfigError, IdentificationError
-from thermogym.identification.problem import Evaluation, Problem
+
+if TYPE_CHECKING:  # the problem imports the sensitivities of this package at run time
+    from thermogym.identification.problem import Evaluation, Problem
 
 __all__ = ["HistoryEntry", "StopCriteria", "StopSearch", "Tracker"]
 
@@ -63,12 +66,10 @@ class StopCriteria:
                 isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1
             ):
                 raise ConfigError(f"{name} is {v!r}, expected a positive whole number")
-        t = self.time_limit
-        if t is not None and not (isinstance(t, int | float) and math.isfinite(t) and t > 0):
-            raise ConfigError(f"time_limit is {t!r}, expected a positive number of seconds")
-        q = self.target
-        if q is not None and not (isinstance(q, int | float) and math.isfinite(q)):
-            raise ConfigError(f"target is {q!r}, expected a finite criterion value")
+        if self.time_limit is not None:
+            positive("time_limit", self.time_limit, unit="s", error=ConfigError, text=False)
+        if self.target is not None:
+            finite("target", self.target, error=ConfigError, text=False)
 
     def as_dict(self) -> dict[str, Any]:
         """The criteria as JSON types."""

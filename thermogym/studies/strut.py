@@ -36,12 +36,14 @@ from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError, ShapeError
 from thermogym.identification.coordinator import run_identification
+from thermogym.identification.foptd import fit_foptd
 from thermogym.identification.metrics import rmse
 from thermogym.identification.problem import Problem
 from thermogym.identification.simmodel import ThermogymModel
-from thermogym.models.linear import FOPTDModel, discrete_to_foptd
+from thermogym.models.linear import FOPTDModel
 from thermogym.models.strut import STRUT_OUTPUTS, StrutModel
 from thermogym.recording import Recording
+from thermogym.rigs import get_rig, to_recording
 
 __all__ = [
     "RATIOS",
@@ -159,31 +161,6 @@ class FOPTDFit:
         return {o: float(rec[o][0]) + sim.output(o)[0] for o in self.outputs}
 
 
-def _fit_one(
-    y: NDArray[np.float64], u: NDArray[np.float64], d_max: int
-) -> tuple[float, float, int]:
-    """Least squares of y[k] = a y[k−1] + b u[k−1−d] for every d; best simulation error (000)."""
-    best = (np.inf, 0.0, 0.0, 0)
-    n = y.size
-    for d in range(d_max + 1):
-        k = np.arange(1 + d, n)
-        if k.size < 3:
-            break
-        X = np.column_stack([y[k - 1], u[k - 1 - d]])
-        (a, b), *_ = np.linalg.lstsq(X, y[k], rcond=None)  # (8) in 000
-        if not 0.0 < a < 1.0:
-            continue
-        ys = np.zeros(n)
-        for i in range(1, n):
-            ys[i] = a * ys[i - 1] + (b * u[i - 1 - d] if i - 1 - d >= 0 else 0.0)
-        e = float(np.mean((ys - y) ** 2))
-        if e < best[0]:
-            best = (e, float(a), float(b), d)
-    if not np.isfinite(best[0]):
-        raise ConfigError("no stable first-order fit found for any delay")
-    return best[1], best[2], best[3]
-
-
 def fit_foptd_set(rec: Recording, outputs: Sequence[str] = OUTPUTS, *, d_max: int = 20) -> FOPTDFit:
     """Fit the FOPTD set of paper 000 section 4.1 (Table 1) to one step test.
 
@@ -192,8 +169,7 @@ def fit_foptd_set(rec: Recording, outputs: Sequence[str] = OUTPUTS, *, d_max: in
     integer delay ``d`` in ``[0, d_max]``; the delay with the smallest mean
     squared simulation error is kept and converted by eqs (11)-(12):
     ``T = −Δt/ln a``, ``K = b/(1 − a)``, ``τ = d Δt``. The fit is
-    :func:`thermogym.identification.foptd.fit_foptd` (linear identification);
-    a build without it falls back to the same procedure written here.
+    :func:`thermogym.identification.foptd.fit_foptd` (linear identification).
 
     Parameters
     ----------
@@ -208,33 +184,16 @@ def fit_foptd_set(rec: Recording, outputs: Sequence[str] = OUTPUTS, *, d_max: in
     FOPTDFit
     """
     t0 = time.perf_counter()
-    try:
-        from thermogym.identification.foptd import fit_foptd
-    except ModuleNotFoundError as e:  # pragma: no cover - the linear-identification module
-        if e.name != "thermogym.identification.foptd":
-            raise
-        fit_foptd = None
-    if fit_foptd is not None:
-        res = fit_foptd(rec, ["feed_rate"], list(outputs), max_delay=d_max)
-        return FOPTDFit(
-            tuple(outputs),
-            np.asarray(res.K, dtype=float)[:, 0],
-            np.asarray(res.T, dtype=float)[:, 0],
-            np.asarray(res.tau, dtype=float)[:, 0],
-            time.perf_counter() - t0,
-        )
-    u = np.asarray(rec["feed_rate"], dtype=float)
-    K, T, tau = [], [], []
-    for o in outputs:
-        y = np.asarray(rec[o], dtype=float)
-        y = y - y[0]
-        a, b, d = _fit_one(y, u, d_max)
-        k, t, ta = discrete_to_foptd(a, b, d, rec.dt)
-        K.append(float(k))
-        T.append(float(t))
-        tau.append(float(ta))
+    # the paper's method: deviations from the initial values, the start at rest
+    res = fit_foptd(
+        rec, ["feed_rate"], list(outputs), max_delay=d_max, operating_point_mode="initial"
+    )
     return FOPTDFit(
-        tuple(outputs), np.array(K), np.array(T), np.array(tau), time.perf_counter() - t0
+        tuple(outputs),
+        np.asarray(res.K, dtype=float)[:, 0],
+        np.asarray(res.T, dtype=float)[:, 0],
+        np.asarray(res.tau, dtype=float)[:, 0],
+        time.perf_counter() - t0,
     )
 
 
@@ -387,8 +346,6 @@ def run_strut_study(
     """
     cfg = config or StrutStudyConfig()
     if recordings is None:
-        from thermogym.rigs import get_rig, to_recording
-
         rig = get_rig("strut", cfg.effects)
         if cfg.specimen:
             rig = rig.with_specimen(dict(cfg.specimen))

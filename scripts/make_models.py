@@ -1,6 +1,6 @@
-"""Identify the linear models the controller presets are tuned on; write them here.
+"""Identify the linear models the controller presets are tuned on; write them as package data.
 
-This script produced the JSON files next to it, which
+This script produced the JSON files in ``thermogym/controllers/data/``, which
 :mod:`thermogym.controllers.presets` reads: the models a control engineer
 would identify from plant tests before tuning PID, feedforward and MPC. It is
 a script, not part of the controllers' import graph: it may call
@@ -35,7 +35,7 @@ actuator specimen), which is the sim-to-real gap it reports.
 
 Usage::
 
-    python thermogym/controllers/data/make_models.py [--out FOLDER] [--only NAME ...]
+    python scripts/make_models.py [--out FOLDER] [--only NAME ...]
 """
 
 from __future__ import annotations
@@ -57,7 +57,8 @@ from thermogym.identification.foptd import fit_foptd
 from thermogym.identification.n4sid import n4sid
 from thermogym.recording import Recording
 
-HERE = Path(__file__).resolve().parent
+#: Where the controller presets read the models (package data of the checkout).
+DATA = Path(__file__).resolve().parents[1] / "thermogym" / "controllers" / "data"
 ROOM_DT = 1200.0
 
 
@@ -87,7 +88,7 @@ def valve_foptd(out: Path) -> dict:
     """FOPTD of the stroke from the duty (two steps)."""
     recs = [_valve_step(0.43, 0.47, 1), _valve_step(0.47, 0.43, 2)]
     res = fit_foptd(recs, ["duty"], ["x_V"], operating_point_mode="initial", max_delay_s=200.0)
-    res.fit.notes = (res.fit.notes or "") + "; made by thermogym/controllers/data/make_models.py"
+    res.fit.notes = (res.fit.notes or "") + "; made by scripts/make_models.py"
     res.fit.save(out / "axt211valve_foptd.json")
     return {"K": float(res.K[0, 0]), "T": float(res.T[0, 0]), "tau": float(res.tau[0, 0])}
 
@@ -174,8 +175,7 @@ def room_ss(out: Path) -> dict:
         )
         fit = res.fit
         fit.notes = (fit.notes or "") + (
-            f"; room heater through PWM at {period:g} s; made by "
-            "thermogym/controllers/data/make_models.py"
+            f"; room heater through PWM at {period:g} s; made by scripts/make_models.py"
         )
         fit.save(out / f"axt211room_ss_{name}.json")
         m = fit.build_model()
@@ -215,7 +215,7 @@ def tclab_foptd(out: Path) -> dict:
     """FOPTD of T1, T2 from Q1, Q2 (one step per heater)."""
     recs = [_tclab_steps(1)]
     res = fit_foptd(recs, ["Q1", "Q2"], ["T1", "T2"], operating_point_mode="initial", max_delay=60)
-    res.fit.notes = (res.fit.notes or "") + "; made by thermogym/controllers/data/make_models.py"
+    res.fit.notes = (res.fit.notes or "") + "; made by scripts/make_models.py"
     res.fit.save(out / "tclab_foptd.json")
     return {"K": res.K.tolist(), "T": res.T.tolist(), "tau": res.tau.tolist()}
 
@@ -231,7 +231,7 @@ JOBS = {
 def main() -> None:
     """Run the identification jobs and write their JSON files."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=HERE)
+    ap.add_argument("--out", type=Path, default=DATA)
     ap.add_argument("--only", nargs="*", choices=list(JOBS))
     args = ap.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)

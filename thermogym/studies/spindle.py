@@ -43,10 +43,12 @@ import numpy as np
 from thermogym.errors import ConfigError, UnknownNameError
 from thermogym.fitresult import FitResult
 from thermogym.identification.crossval import OrderCV, cross_validate_order
+from thermogym.identification.metrics import nrmse
 from thermogym.identification.n4sid import n4sid, n4sid_decompose, prepare_problem
 from thermogym.identification.prepare import PrepareConfig, prepare
 from thermogym.models.spindle import SPINDLE_OUTPUTS
 from thermogym.recording import Recording
+from thermogym.rigs import get_rig, to_recording
 
 __all__ = [
     "INPUT_SETS",
@@ -155,8 +157,6 @@ def spindle_data(
     -------
     SpindleData
     """
-    from thermogym.rigs import get_rig, to_recording
-
     rig = get_rig("spindle", effects)
     t0 = time.perf_counter()
     runs = rig.run(
@@ -259,8 +259,6 @@ def va_matrix(
     matrix : ndarray, shape (n_speeds, n_speeds)
         MNRMSE (fraction); row = training speed, column = test speed.
     """
-    from thermogym.identification.metrics import nrmse
-
     ins, ft = _inputs(input_set)
     sp = list(speeds or sorted({s for s, _ in data.runs}))
     M = np.full((len(sp), len(sp)), np.nan)
@@ -395,6 +393,6 @@ def virtual_sensor_fit(
     fit.settings["preparation"] = {
         **PREPARE.to_dict(),
         "note": "temperatures are rises above T_amb [K]; prepare raw data with "
-        "thermogym.identification.spindle_study.PREPARE",
+        "thermogym.studies.spindle.PREPARE",
     }
     return fit

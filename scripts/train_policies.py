@@ -1,4 +1,4 @@
-"""Train the PPO policies shipped in this folder (the ``ppo`` benchmark preset).
+"""Train the PPO policies shipped in ``thermogym/controllers/policies/`` (``ppo`` preset).
 
 Each policy is trained on the *identified model* environment (``plant="model"``,
 the package's nominal FitResult; its fingerprint is in the ``.json``) and
@@ -19,8 +19,8 @@ the final evaluation against a random policy (:func:`thermogym.controllers.rl.tr
 
 Usage::
 
-    python thermogym/controllers/policies/train_policies.py [--only valve|room] [--steps N]
-        [--ship best|final] [--no-train]
+    python scripts/train_policies.py [--only valve|room] [--steps N]
+        [--ship best|final] [--no-train] [--out FOLDER]
 
 ``--ship best`` (default) ships the policy of the best periodic evaluation
 (``EvalCallback``; evaluation seeds 10000+ are disjoint from the benchmark's
@@ -39,7 +39,8 @@ import numpy as np
 from thermogym._fileio import atomic_write_text
 from thermogym.controllers.rl import RLConfig, evaluate, train
 
-HERE = Path(__file__).resolve().parent
+#: Where the ``ppo`` preset reads the shipped policies (package data of the checkout).
+POLICIES = Path(__file__).resolve().parents[1] / "thermogym" / "controllers" / "policies"
 
 CONFIGS = {
     "valve": RLConfig(
@@ -77,8 +78,8 @@ CONFIGS = {
 }
 
 
-def ship(name: str, work: Path, which: str) -> dict:
-    """Copy the final or the best policy of a finished run here, with its provenance."""
+def ship(name: str, work: Path, which: str, dest: Path = POLICIES) -> dict:
+    """Copy the final or the best policy of a finished run to ``dest``, with its provenance."""
     cfg = CONFIGS[name]
     run = work / name
     meta = json.loads((run / "policy.json").read_text(encoding="utf-8"))
@@ -109,19 +110,23 @@ def ship(name: str, work: Path, which: str) -> dict:
             }
             src = best
     stem = f"{cfg.env_id.split('/')[1].split('-v')[0].lower()}_{cfg.algo}"
-    shutil.copyfile(src, HERE / f"{stem}.zip")
-    atomic_write_text(HERE / f"{stem}.json", json.dumps(meta, indent=1, default=str) + "\n")
+    dest.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(src, dest / f"{stem}.zip")
+    atomic_write_text(dest / f"{stem}.json", json.dumps(meta, indent=1, default=str) + "\n")
     return meta
 
 
 def main() -> None:
-    """Train the policies and copy the shipped ``.zip`` / ``.json`` here."""
+    """Train the policies and copy the shipped ``.zip`` / ``.json`` to ``--out``."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", choices=list(CONFIGS))
     ap.add_argument("--steps", type=int, help="override total_timesteps")
     ap.add_argument("--work", type=Path, default=Path("out/rl-training"))
     ap.add_argument("--ship", choices=["best", "final"], default="best")
     ap.add_argument("--no-train", action="store_true", help="only ship finished runs")
+    ap.add_argument(
+        "--out", type=Path, default=POLICIES, help="where to ship (default: the package data)"
+    )
     args = ap.parse_args()
     for name in [args.only] if args.only else list(CONFIGS):
         cfg = CONFIGS[name]
@@ -130,7 +135,7 @@ def main() -> None:
             cfg.total_timesteps = args.steps
         if not args.no_train:
             train(cfg)
-        meta = ship(name, args.work, args.ship)
+        meta = ship(name, args.work, args.ship, args.out)
         ev = meta["evaluation"]
         print(
             f"{name}: trained {meta['seconds']:.0f} s, shipped {meta['shipped']['which']} "

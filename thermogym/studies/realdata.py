@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from thermogym.datasets import load
 from thermogym.errors import UnknownNameError
 from thermogym.fitresult import FitResult
 from thermogym.identification.crossval import OrderCV, cross_validate_order, split_recording
@@ -202,8 +203,6 @@ class CaseResult:
 
 
 def _load(name: str, dt: float | None) -> Recording:
-    from thermogym.datasets import load
-
     rec = load(name)
     if dt is not None or not rec.is_uniform():
         rec = prepare(rec, dt=dt or float(np.median(np.diff(rec.time))), outliers=False)

@@ -52,7 +52,7 @@ it).
 
 Usage::
 
-    python thermogym/envs/data/fit_tclab.py [--out PATH] [--plot FOLDER]
+    python scripts/fit_tclab.py [--out PATH] [--plot FOLDER]
 """
 
 from __future__ import annotations
@@ -95,7 +95,7 @@ class Args:
     """Command-line arguments of the fit."""
 
     out: Path
-    """Where to write the FitResult JSON (default: next to this script)."""
+    """Where to write the FitResult JSON (default: ``thermogym/envs/data/tclab_fit.json``)."""
     plot: Path | None
     """Folder for validation figures (optional)."""
 
@@ -138,9 +138,9 @@ def simulate(sm: ThermogymModel, theta: np.ndarray, rec: Recording) -> np.ndarra
 
 def main(argv: list[str] | None = None) -> int:
     """Fit, report and write the FitResult."""
-    here = Path(__file__).resolve().parent
+    data = Path(__file__).resolve().parents[1] / "thermogym" / "envs" / "data"
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=here / "tclab_fit.json")
+    ap.add_argument("--out", type=Path, default=data / "tclab_fit.json")
     ap.add_argument("--plot", type=Path, default=None)
     ns = ap.parse_args(argv)
     args = Args(out=ns.out, plot=ns.plot)
@@ -231,7 +231,7 @@ def main(argv: list[str] | None = None) -> int:
             "boards": BOARD,
             "alpha_1_dowling": float(p[-1]),
             "alpha_1_dowling_stderr": float(sd_all[-1]),
-            "script": "thermogym/envs/data/fit_tclab.py",
+            "script": "scripts/fit_tclab.py",
         },
         metrics=metrics,
         data=[data_entry(raw[n], "train") for n in TRAIN]
