@@ -504,3 +504,49 @@ def test_named_effects_adapter_and_scores():
     assert s["both"] is True and s["correct"] is True
     assert score(["none"], "control", ["parameter_error"], [])["control_ok"] is True
     assert score(["none"], "control", ["unexplained"], [])["control_ok"] is False
+
+
+def test_figures_count_each_kind_once():
+    from benchmarks.diagnosis.generalisation import figures
+
+    rows = [
+        {
+            "kind": "single",
+            "top1": True,
+            "top3": True,
+            "correct": True,
+            "heldout_improves": True,
+            "cpu_seconds": 1.0,
+            "seconds": 2.0,
+            "named_effects": ["sensor_lag"],
+        },
+        {
+            "kind": "single",
+            "top1": False,
+            "top3": True,
+            "correct": False,
+            "cpu_seconds": 3.0,
+            "seconds": 3.0,
+            "named_effects": ["none"],
+        },
+        {
+            "kind": "combo",
+            "both": False,
+            "correct": False,
+            "cpu_seconds": 5.0,
+            "seconds": 9.0,
+            "named_effects": ["backlash"],
+        },
+        {
+            "kind": "control",
+            "control_ok": False,
+            "cpu_seconds": 70.0,
+            "seconds": 80.0,
+            "named_effects": ["unexplained"],
+        },
+    ]
+    f = figures(rows)
+    assert (f["single_top1"], f["single_top3"], f["combo_both"]) == (0.5, 1.0, 0.0)
+    assert f["controls_no_physics"] == 0.0 and f["controls_no_named_physics"] == 1.0
+    assert f["heldout_improves"] == 1.0 and f["median_s"] == 4.0 and f["max_s"] == 70.0
+    assert f["cases_over_60s"] == 1 and f["n_cases"] == 4

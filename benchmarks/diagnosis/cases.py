@@ -340,12 +340,12 @@ def simulate_recording(
     hidden: Sequence[Hidden],
     scen: Scenario,
     rng: np.random.Generator,
-) -> tuple[dict[str, Array], dict[str, Array], list[dict[str, Array]]]:
+) -> tuple[dict[str, Array], list[dict[str, Array]]]:
     """Simulate one recording with and without its effects (noise-free, recorded window).
 
-    Returns the exogenous signals as logged (recorded window), the outputs of
-    the batch elements of :func:`_subsets` (first: all effects), and the
-    profiles' random draws consumed from ``rng``.
+    Returns the exogenous signals as logged (recorded window) and the outputs
+    of the batch elements of :func:`_subsets` (first: all effects, then none).
+    The effects' random profiles are drawn from ``rng``.
     """
     N = next(iter(scen.u.values())).size
     t = scen.dt * np.arange(N)
@@ -377,7 +377,7 @@ def simulate_recording(
     cut = slice(scen.n_pre, None)
     logged = {k: np.asarray(v[0, cut], dtype=float) for k, v in run.inputs.items()}
     outs = [{k: v[b, cut] for k, v in run.outputs.items()} for b in range(B)]
-    return logged, outs, [prof.values]
+    return logged, outs
 
 
 def _share_of(outs: Sequence[Mapping[str, Array]], i: int) -> tuple[float, float]:
@@ -395,7 +395,7 @@ def _family_build(case: Case) -> Built:
     rms: dict[str, float] = {}
     for role in ("train", "validate"):
         scen = SCENARIOS[case.family](rng, role, mid_train if role == "train" else True)
-        logged, outs, _ = simulate_recording(family, consts, case.hidden, scen, rng)
+        logged, outs = simulate_recording(family, consts, case.hidden, scen, rng)
         if role == "train" and case.hidden:
             share_acc["all"], rms["all"] = _share_of(outs, 0)
             if len(case.hidden) == 1:

@@ -143,19 +143,32 @@ def _post_hoc(run: RigRun, h: Hidden, rng: np.random.Generator) -> RigRun:
 
 
 def _spread(rig: Any, setup: RigSetup, rng: np.random.Generator, control: bool) -> tuple[Any, str]:
-    """The rig with this case's specimen overrides; a control's constants drawn 10-30 % off."""
+    """The rig with this case's specimen: a control's constants off nominal, then overrides.
+
+    Rigs with a true plant of their own (``rig.plant().draw_specimens``, issue 14)
+    draw a control's specimen from their own manufacturing spread. Rigs built
+    on the model class take the model's positive constants of
+    :attr:`RigSetup.spread`, each 10-30 % off nominal (random sign).
+    """
+    plant = rig.plant()
+    if hasattr(plant, "draw_specimens"):
+        note = ""
+        if control:
+            rig = rig.with_specimen(plant.draw_specimens(rng, 1))
+            note = "specimen drawn from the rig's own manufacturing spread"
+        if setup.specimen:
+            try:
+                rig = rig.with_specimen(dict(setup.specimen))
+            except (KeyError, ValueError) as e:  # thermogym's errors subclass these
+                note += f"; overrides {dict(setup.specimen)} not applied: {e}"
+        return rig, note.lstrip("; ")
     from thermogym.models.registry import get_model
 
     over: dict[str, float] = dict(setup.specimen)
     note = ""
     if control and setup.spread:
-        nominal = dict(
-            zip(
-                get_model(rig.model_name).param_names,
-                get_model(rig.model_name).nominal,
-                strict=True,
-            )
-        )
+        model = get_model(rig.model_name)
+        nominal = dict(zip(model.param_names, model.nominal, strict=True))
         for k in setup.spread:
             over[k] = nominal[k] * (1.0 + rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 0.3))
         note = "specimen constants drawn 10-30 % off nominal: " + ", ".join(
@@ -163,8 +176,6 @@ def _spread(rig: Any, setup: RigSetup, rng: np.random.Generator, control: bool) 
         )
     if not over:
         return rig, note
-    if not hasattr(rig, "with_specimen"):
-        return rig, note + " (not applied: the rig has no with_specimen)"
     return rig.with_specimen(over), note
 
 
