@@ -385,16 +385,20 @@ def plot(doc: Mapping[str, Any], path: Path) -> None:
         f"{_f(fg['controls_no_physics'], '.2f')}"
     )
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    from thermogym._fileio import atomic_write
+
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"))
     plt.close(fig)
 
 
-def write(doc: Mapping[str, Any], json_path: Path) -> None:
-    """The JSON, the Markdown table and the figure (each written atomically)."""
+def write(doc: Mapping[str, Any], json_path: Path, *, with_json: bool = True) -> None:
+    """The JSON, the Markdown table and the figure beside it (each written atomically)."""
     from thermogym._fileio import atomic_write_text
 
     json_path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(json_path, json.dumps(doc, indent=1, allow_nan=False, default=_json) + "\n")
+    if with_json:
+        text = json.dumps(doc, indent=1, allow_nan=False, default=_json) + "\n"
+        atomic_write_text(json_path, text)
     atomic_write_text(json_path.parent / "table.md", markdown(doc))
     plot(doc, json_path.parent / "summary.png")
 
@@ -432,11 +436,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="pass diagnose(time_limit=S) (recorded in the JSON; default: none)",
     )
     ap.add_argument("--list", action="store_true", help="list the selected cases and exit")
-    ap.add_argument("--from-json", type=Path, help="redraw table and figure from a results file")
+    ap.add_argument(
+        "--from-json", type=Path, help="redraw table.md and summary.png from a results file"
+    )
     args = ap.parse_args(argv)
     if args.from_json is not None:
-        doc = json.loads(args.from_json.read_text())
-        write(doc, args.json or args.from_json)
+        # redraw: the table and figure beside --json (or the input); the input is never rewritten
+        doc = json.loads(args.from_json.read_text(encoding="utf-8"))
+        target = args.json or args.from_json
+        write(doc, target, with_json=target.resolve() != args.from_json.resolve())
         return 0
     cases = select(args.cases, quick=args.quick)
     if args.list:
