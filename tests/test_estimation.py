@@ -443,7 +443,7 @@ def test_cli_virtual_sensor_writes_estimates_metrics_and_plot(tmp_path, capsys, 
     ]  # fmt: skip
     assert main(args) == 0
     out = capsys.readouterr().out
-    assert "NRMSE fit" in out and "NEES mean" in out and "NIS mean" in out
+    assert " fit " in out and "NEES mean" in out and "NIS mean" in out
     est = read_recording(tmp_path / "est.csv")
     for h in HIDDEN:
         assert f"{h}_std" in est

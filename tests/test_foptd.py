@@ -178,7 +178,7 @@ def test_cli_identify_foptd(tmp_path, capsys):
     fit = FitResult.load(out)
     assert fit.metrics["validation"]["mnrmse"] == pytest.approx(1.0, abs=1e-9)
     assert (tmp_path / "figs" / "foptd_delay_search.png").stat().st_size > 1000
-    assert "validation: MNRMSE 100.00 %" in capsys.readouterr().out
+    assert "validation: mean fit 100.00 %" in capsys.readouterr().out
     # a bad column name is a one-line error, not a traceback
     rc = cli_main(
         [
@@ -194,3 +194,25 @@ def test_cli_identify_foptd(tmp_path, capsys):
         ]
     )
     assert rc == 2 and not (tmp_path / "x.json").exists()
+
+
+def test_default_fit_of_a_log_that_starts_mid_operation():
+    # the plant is 6 units above its steady state at t = 0 (a building log, a running
+    # machine); the first sample is noisy too. The paper's convention (first sample = rest)
+    # is far off; the default fits the offset and the initial lag.
+    true = FOPTDModel(["u"], ["y"], K=1.5, T=300.0, tau=20.0, offsets=True, y0=21.0,
+                      steady_start=True)  # fmt: skip
+    rng = np.random.default_rng(4)
+    u = np.repeat(rng.uniform(0, 4, 30), 60)[:, None]
+    y = true.simulate(u, 10.0, x0=[1.5 * u[0, 0] + 6.0]).outputs[0, :, 0]
+    y = y + 0.02 * rng.normal(size=y.size)
+    y[0] += 1.0
+    rec = Recording(10.0 * np.arange(y.size), {"u": u[:, 0], "y": y})
+    res = fit_foptd(rec, ["u"], ["y"], max_delay=10)
+    assert res.K[0, 0] == pytest.approx(1.5, rel=0.03)
+    assert res.T[0, 0] == pytest.approx(300.0, rel=0.05)
+    assert abs(res.tau[0, 0] - 20.0) <= 10.0
+    assert res.fit.settings["start"] == {"y": "free"}
+    assert res.fit.metrics["train"]["mnrmse"] > 0.98
+    paper = fit_foptd(rec, ["u"], ["y"], max_delay=10, operating_point_mode="initial")
+    assert abs(paper.K[0, 0] - 1.5) > 5 * abs(res.K[0, 0] - 1.5)

@@ -21,11 +21,20 @@ Any CSV/Parquet recording works with ``--inputs``/``--outputs`` naming its colum
 from __future__ import annotations
 
 import argparse
-import ast
 from pathlib import Path
 from typing import Any
 
+from thermogym._cli.common import CliParser, number, plan_outputs, seconds, whole
+from thermogym._cli.data import (
+    add_data_options,
+    add_prepare_option,
+    hoist_recordings,
+    load_recordings,
+    parse_prepare,
+)
 from thermogym.errors import ConfigError
+from thermogym.identification.advice import DEFAULT_TOLERANCE, parse_expect_sign
+from thermogym.identification.linear_fit import X0_CHOICES
 
 METHODS = ("foptd", "n4sid", "rls")
 
@@ -50,27 +59,9 @@ def _range(text: str) -> range:
     return range(lo, hi + 1)
 
 
-def _prepare_options(items: list[str] | None) -> dict[str, Any] | None:
-    if items is None:
-        return None
-    out: dict[str, Any] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.isidentifier():
-            raise ConfigError(f"--prepare {item!r} is not of the form KEY=VALUE")
-        try:
-            v = ast.literal_eval(value)
-        except (ValueError, SyntaxError):
-            v = value
-        if key == "valid_range" and isinstance(v, str) and ":" in v:
-            v = tuple(float(x) for x in v.split(":"))
-        out[key] = tuple(v) if isinstance(v, list) else v
-    return out
-
-
 def build_parser(method: str) -> argparse.ArgumentParser:
     """Options of ``thermogym identify METHOD``."""
-    p = argparse.ArgumentParser(
+    p = CliParser(
         prog=f"thermogym identify {method}",
         description={
             "foptd": "FOPTD transfer functions by least squares and delay search (000 section 4.1)",
@@ -79,65 +70,91 @@ def build_parser(method: str) -> argparse.ArgumentParser:
             "rls": "FOPTD parameters by recursive least squares with forgetting",
         }[method],
     )
-    p.add_argument("data", nargs="+", help="training recordings (CSV/Parquet)")
+    p.add_argument(
+        "data", nargs="+", help="training recordings: CSV/Parquet files, folders, dataset:NAME"
+    )
     p.add_argument("--validate", nargs="+", default=[], metavar="DATA", help="validation data")
     p.add_argument("--model", help="thermogym plant whose signal names to use (e.g. spindle)")
     p.add_argument("--inputs", help="exogenous columns, comma separated")
     p.add_argument("--outputs", help="output columns, comma separated")
     p.add_argument("--disturbances", help="which inputs are disturbances (default: roles)")
-    p.add_argument(
-        "--prepare",
-        nargs="*",
-        metavar="KEY=VALUE",
-        help="prepare raw data first (outliers, 1 Hz grid, gaps, alignment); options of "
-        "thermogym.identification.prepare.PrepareConfig, e.g. ambient=T_amb "
-        "valid_range=-50,300 dt=1",
-    )
+    add_prepare_option(p)
+    add_data_options(p)
     p.add_argument(
         "--operating-point",
-        choices=("none", "initial", "mean"),
-        help="subtracted from each experiment (default: initial for foptd/rls, none for n4sid)",
+        choices=("estimate", "none", "initial", "mean", "rest")
+        if method == "foptd"
+        else ("auto", "none", "initial", "mean")
+        if method == "n4sid"
+        else ("none", "initial", "mean"),
+        help="foptd: 'estimate' (default) fits the output offset and the initial lag, no "
+        "sample is taken as rest; the others subtract from each experiment its first samples "
+        "(initial, paper 000), its means (mean) or nothing (none; rest: inputs from zero). "
+        "rls: default initial; n4sid: default auto, the better of none (absolute levels: a "
+        "plant at rest at zero input) and mean (MATLAB's detrend) on held-out folds",
+    )
+    p.add_argument(
+        "--x0",
+        choices=X0_CHOICES,
+        default="auto",
+        help="initial state when the fit is simulated on the recordings (metrics, plots): "
+        "estimate (least squares on the outputs, as MATLAB's compare), steady (settled at the "
+        "first input), zero (at rest at the operating point); auto (default): estimate",
+    )
+    p.add_argument(
+        "--expect-sign",
+        metavar="IN=+|IN:OUT=-",
+        help="declared sign of steady-state gains, comma separated (e.g. P_heater=+); a gain "
+        "of the other sign is warned about. Without it: heaters (power units) and temperature "
+        "inputs must raise a temperature output; 'none' checks nothing",
     )
     p.add_argument("--out", required=True, help="FitResult JSON to write")
     p.add_argument("--plots", help="folder for figures")
     if method in ("foptd", "rls"):
-        p.add_argument("--max-delay-s", type=float, help="largest delay searched [s]")
+        p.add_argument(
+            "--max-delay-s",
+            type=seconds(what="a largest delay"),
+            help="largest delay searched [s]",
+        )
         p.add_argument("--criterion", choices=("simulation", "equation"), default="simulation")
     if method == "rls":
-        p.add_argument("--forgetting", type=float, default=0.999, help="λ (default 0.999)")
+        p.add_argument(
+            "--forgetting",
+            type=number(0.0, 1.0, lo_open=True, what="a forgetting factor"),
+            default=0.999,
+            help="λ in (0, 1] (default 0.999)",
+        )
         p.add_argument("--delays", help="delays [samples], one or one per output")
         p.add_argument("--from-fit", help="warm start from a foptd FitResult")
     if method == "n4sid":
         g = p.add_mutually_exclusive_group()
-        g.add_argument("--order", type=int, help="model order")
+        g.add_argument("--order", type=whole(1, 500, what="a model order"), help="model order")
         g.add_argument("--orders", default="1:10", help="candidate orders A:B (default 1:10)")
         p.add_argument(
             "--folds",
-            type=int,
+            type=whole(2, 100, what="a number of folds"),
             help="choose the order by k-fold cross-validation (recordings are dealt round "
             "robin into the folds; a single recording is cut into K parts)",
         )
         p.add_argument("--scheme", choices=("paper", "kfold"), default="paper")
-        p.add_argument("--horizon", type=int, help="block rows (default from the orders)")
+        p.add_argument(
+            "--horizon",
+            type=whole(1, 100_000, what="a number of block rows"),
+            help="block rows (default from the orders)",
+        )
         p.add_argument("--decimate", default="auto", help="factor or 'auto' (default)")
         p.add_argument("--weighting", choices=("moesp", "cva", "n4sid"), default="moesp")
         p.add_argument("--feedthrough", action="store_true", help="estimate D")
-        p.add_argument("--x0", choices=("estimate", "zero"), default="estimate")
+        p.add_argument(
+            "--cv-tolerance",
+            type=number(0.0, 100.0, what="a tolerance in percentage points"),
+            default=100 * DEFAULT_TOLERANCE,
+            metavar="PERCENT",
+            help="the order is the smallest whose validation fit is within this many "
+            "percentage points of the best (default %(default)g)",
+        )
         p.add_argument("--no-noise-model", action="store_true", help="K = 0")
     return p
-
-
-def _load(paths: list[str], prep: dict[str, Any] | None) -> list[Any]:
-    from thermogym.identification.prepare import prepare
-    from thermogym.recording import read_recording
-
-    recs = []
-    for path in paths:
-        rec = read_recording(path)
-        if rec.experiment_id is None:
-            rec = rec.replace(experiment_id=Path(path).stem.split(".")[0])
-        recs.append(prepare(rec, **prep) if prep is not None else rec)
-    return recs
 
 
 def _signals(args: argparse.Namespace, rec: Any) -> tuple[list[str], list[str]]:
@@ -160,21 +177,42 @@ def _signals(args: argparse.Namespace, rec: Any) -> tuple[list[str], list[str]]:
     return inputs, outputs
 
 
-def _report(fit: Any) -> None:
+def _report(fit: Any, x0: str) -> None:
+    from thermogym.identification.metrics import fit_text
+
+    how = {
+        "auto": "estimated from each recording's outputs",
+        "estimate": "estimated from each recording's outputs",
+        "steady": "settled at the first input",
+        "zero": "at rest at the operating point",
+    }[x0]
+    print(f"  fit (NRMSE fit, %; initial state {how}, --x0 {x0}):")
     for part in ("train", "validation"):
         m = fit.metrics.get(part)
         if not m:
             continue
-        print(f"  {part}: MNRMSE {100 * m['mnrmse']:.2f} %")
+        print(f"  {part}: mean fit {fit_text(m['mnrmse'])}")
         for eid, rep in m["experiments"].items():
-            worst = min(rep["nrmse"].items(), key=lambda kv: kv[1])
-            print(
-                f"    {eid:<32} MNRMSE {100 * rep['mnrmse']:7.2f} %   "
-                f"(lowest {worst[0]} {100 * worst[1]:.2f} %)"
-            )
+            per = "  ".join(f"{c} {fit_text(v)}" for c, v in rep["nrmse"].items())
+            print(f"    {eid:<32} {per}")
 
 
-def _plot_fits(fit: Any, recs: list[Any], folder: Path, tag: str) -> list[Path]:
+def _warn(fit: Any, recs: list[Any], args: argparse.Namespace, extra: list[Any]) -> None:
+    """Add the generic checks and ``extra`` to the FitResult and print every warning."""
+    import sys
+
+    from thermogym.identification.advice import check_fit
+
+    units: dict[str, str] = {}
+    for r in recs:
+        units.update({c: u for c, u in r.units.items() if u})
+    fit.warnings = [w for w in fit.warnings if w["code"] not in ("fit_below_zero", "gain_sign")]
+    fit.add_warnings([*extra, *check_fit(fit, units=units, expect=args.expect)])
+    for w in fit.warnings:
+        print(f"warning: {w['message']}", file=sys.stderr)
+
+
+def _plot_fits(fit: Any, recs: list[Any], folder: Path, tag: str, x0: str) -> list[Path]:
     from thermogym.identification.linear_fit import predict_fit
     from thermogym.identification.linear_plots import plot_fit
     from thermogym.identification.metrics import nrmse
@@ -183,7 +221,7 @@ def _plot_fits(fit: Any, recs: list[Any], folder: Path, tag: str) -> list[Path]:
     outs = list(model.output_names)
     paths = []
     for rec in recs:
-        yh = predict_fit(fit, rec)
+        yh = predict_fit(fit, rec, x0=x0)
         fits = {c: float(nrmse(rec[c], yh[:, j])) for j, c in enumerate(outs)}
         name = f"{tag}_{rec.experiment_id or 'recording'}.png"
         paths.append(
@@ -198,16 +236,51 @@ def main(method: str, argv: list[str]) -> int:
     """Run ``thermogym identify METHOD ARGS``."""
     if method not in METHODS:
         raise ConfigError(f"unknown linear method {method!r}; expected one of {METHODS}")
-    args = build_parser(method).parse_args(argv)
-    prep = _prepare_options(args.prepare)
-    train = _load(args.data, prep)
-    vals = _load(args.validate, prep)
+    args = build_parser(method).parse_args(hoist_recordings(argv))
+    args.command = "identify"
+    args.expect = parse_expect_sign(args.expect_sign)  # refused early
+    prep = parse_prepare(args.prepare)
+    _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
+    decimate_option(args)
+    plan = plan_outputs(
+        args,
+        files={"out": "json"},
+        folders=("plots",),
+        inputs=("data", "validate", "from_fit"),
+    )
+    with plan:
+        return _identify(method, args, prep, plan)
+
+
+def decimate_option(args: argparse.Namespace) -> None:
+    """Check ``--decimate`` (a whole number >= 1 or ``auto``) before any work starts."""
+    text = getattr(args, "decimate", "auto")
+    if text == "auto":
+        return
+    try:
+        args.decimate = int(text)
+    except ValueError:
+        raise ConfigError(f"--decimate {text!r}: expected a whole number or 'auto'") from None
+    if args.decimate < 1:
+        raise ConfigError(f"--decimate {text!r}: expected a whole number >= 1 or 'auto'")
+
+
+def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> int:
+    train = load_recordings(args.data, "training", args, prepare=prep)
+    vals = load_recordings(args.validate, "validation", args, prepare=prep)
     inputs, outputs = _signals(args, train[0])
     dist = _cols(args.disturbances)
-    plots = Path(args.plots) if args.plots else None
-    if plots:
-        plots.mkdir(parents=True, exist_ok=True)
+    max_delay = getattr(args, "max_delay_s", None)
+    if max_delay is not None:
+        span = min(r.duration for r in train)
+        if max_delay > span:
+            raise ConfigError(
+                f"--max-delay-s {max_delay:g} s is longer than the recording ({span:g} s); "
+                "expected a delay within it"
+            )
+    plots = plan.get("--plots")
     figures: list[Path] = []
+    extra: list[Any] = []
     if method == "foptd":
         from thermogym.identification.foptd import fit_foptd
 
@@ -218,7 +291,7 @@ def main(method: str, argv: list[str]) -> int:
             disturbances=dist,
             max_delay_s=args.max_delay_s,
             criterion=args.criterion,
-            operating_point_mode=args.operating_point or "initial",
+            operating_point_mode=args.operating_point or "estimate",
             validate=vals,
         )
         fit = res.fit
@@ -236,14 +309,22 @@ def main(method: str, argv: list[str]) -> int:
     elif method == "rls":
         fit = _run_rls(args, train, vals, inputs, outputs, dist)
     else:
-        fit = _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures)
-    _report(fit)
-    fit.save(args.out)
+        fit, extra = _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures)
+    if args.x0 != "auto":
+        from thermogym.identification.linear_fit import evaluate_fit
+
+        fit.metrics["train"] = evaluate_fit(fit, train, x0=args.x0)
+        if vals:
+            fit.metrics["validation"] = evaluate_fit(fit, vals, x0=args.x0)
+    fit.settings["x0_evaluation"] = args.x0
+    _report(fit, args.x0)
+    _warn(fit, train + vals, args, extra)
+    fit.save(plan.path("--out"))
     if plots:
-        figures += _plot_fits(fit, train, plots, "train")
-        figures += _plot_fits(fit, vals, plots, "validation")
+        figures += _plot_fits(fit, train, plots, "train", args.x0)
+        figures += _plot_fits(fit, vals, plots, "validation", args.x0)
         for f in figures:
-            print(f"  figure: {f}")
+            print(f"  figure: {plan.final(f)}")
     print(f"wrote {args.out}")
     return 0
 
@@ -261,7 +342,20 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
         est = RecursiveFOPTD.from_fit(args.from_fit, forgetting=args.forgetting)
     else:
         if args.delays:
-            delays = [int(v) for v in args.delays.split(",")]
+            try:
+                delays = [int(v) for v in args.delays.split(",")]
+            except ValueError:
+                raise ConfigError(
+                    f"--delays {args.delays!r}: expected whole numbers of samples, comma-separated"
+                ) from None
+            if any(v < 0 for v in delays):
+                raise ConfigError(f"--delays {args.delays!r}: expected delays >= 0 samples")
+            n = min(r.n_samples for r in train)
+            if max(delays) >= n // 2:
+                raise ConfigError(
+                    f"--delays {args.delays!r}: a delay of {max(delays)} samples leaves too little "
+                    f"of a {n}-sample recording to fit; expected delays < {n // 2} samples"
+                )
             d = np.array(delays)[:, None] if len(delays) > 1 else delays[0]
         else:
             d = np.round(
@@ -303,51 +397,82 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
 
 
 def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # type: ignore[no-untyped-def]
-    from thermogym.identification.crossval import cross_validate_order, split_recording
+
+    from thermogym.identification.crossval import cross_validate_order, make_folds
+    from thermogym.identification.metrics import fit_text
     from thermogym.identification.n4sid import n4sid
 
     decimate: int | str = args.decimate
-    if decimate != "auto":
-        try:
-            decimate = int(decimate)
-        except ValueError:
-            raise ConfigError(
-                f"--decimate {args.decimate!r}: expected a whole number or 'auto'"
-            ) from None
-    opm = args.operating_point or "none"
+    opm = args.operating_point or "auto"
+    tol = float(args.cv_tolerance)
     common = {
         "disturbances": dist,
         "horizon": args.horizon,
         "decimate": decimate,
         "weighting": args.weighting,
         "feedthrough": args.feedthrough,
-        "x0": args.x0,
-        "operating_point_mode": opm,
+        "x0": "zero" if args.x0 == "zero" else "estimate",
     }
     cv = None
     order = args.order
     orders = _range(args.orders) if args.order is None else range(args.order, args.order + 1)
-    if args.folds:
-        k = int(args.folds)
-        if len(train) == 1:
-            folds = [[p] for p in split_recording(train[0], k)]
-        elif len(train) >= k:
-            folds = [train[f::k] for f in range(k)]
+    notes: list[Any] = []
+    folds = None
+    if args.folds is not None or opm == "auto":
+        from thermogym.identification.advice import FitWarning
+        from thermogym.identification.linear_fit import exogenous_roles, signal_arrays
+
+        signal_arrays(train, inputs, outputs, min_samples=8, what="N4SID")  # checked first
+
+        ins, dis = exogenous_roles(train[0], inputs, dist)
+        folds, texts = make_folds(train, args.folds or 2, ins + dis)
+        notes += [FitWarning("cv_fallback", t) for t in texts]
+        for t in texts:
+            print(f"  note: {t}")
+    cvs = {}
+    if folds is not None and (args.folds is not None or opm == "auto"):
+        for mode in ("none", "mean") if opm == "auto" else (opm,):
+            cvs[mode] = cross_validate_order(
+                folds,
+                inputs,
+                outputs,
+                orders,
+                scheme=args.scheme,
+                tolerance=tol / 100,
+                operating_point_mode=mode,
+                **common,
+            )
+    if opm == "auto":
+        # the operating point by cross-validation: "none" keeps the absolute levels (a plant
+        # at rest at zero input: rises above ambient, an ambient input), "mean" removes them
+        # (an output with an offset of its own, MATLAB's detrend); the better held-out fit wins
+        if cvs:
+            score = {m: float(c.va[list(c.orders).index(c.chosen_order)]) for m, c in cvs.items()}
+            opm = max(score, key=lambda m: (score[m], m == "mean"))
+            print(
+                f"operating point: {opm} (cross-validated: none VA {fit_text(score['none'])}, "
+                f"mean VA {fit_text(score['mean'])}; --operating-point sets it)"
+            )
         else:
-            raise ConfigError(f"--folds {k} with {len(train)} recordings: give 1 or at least {k}")
-        cv = cross_validate_order(folds, inputs, outputs, orders, scheme=args.scheme, **common)
-        order = cv.best_order
+            opm = "mean"
+            print(
+                "operating point: mean (no folds to cross-validate it; --operating-point sets it)"
+            )
+    common["operating_point_mode"] = opm
+    if args.folds is not None and opm in cvs:
+        cv = cvs[opm]
+        order = cv.chosen_order
+        notes += cv.warnings()
+        k = len(cv.folds)
+        i_c = list(cv.orders).index(order)
         print(
             f"{k}-fold cross-validation ({args.scheme}) over orders {orders.start}.."
-            f"{orders.stop - 1} in {cv.seconds['total']:.2f} s: n* = {order} "
-            f"(TA {100 * cv.ta[list(cv.orders).index(order)]:.2f} %, "
-            f"VA {100 * cv.va[list(cv.orders).index(order)]:.2f} %)"
+            f"{orders.stop - 1} in {cv.seconds['total']:.2f} s: n* = {order}, the smallest "
+            f"order within {tol:g} % of the best validation fit (TA {fit_text(cv.ta[i_c])}, "
+            f"VA {fit_text(cv.va[i_c])}; argmax VA: {cv.best_order})"
         )
         for row in cv.table():
-            print(
-                f"    n = {row['order']:3d}  TA {100 * row['TA']:7.2f} %  "
-                f"VA {100 * row['VA']:7.2f} %"
-            )
+            print(f"    n = {row['order']:3d}  TA {fit_text(row['TA'])}  VA {fit_text(row['VA'])}")
     res = n4sid(
         train,
         inputs,
@@ -361,7 +486,9 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     fit = res.fit
     if cv is not None:
         fit.settings["cross_validation"] = cv.to_dict()
-        fit.settings["order_source"] = f"{len(cv.folds)}-fold cross-validation (eq 10)"
+        fit.settings["order_source"] = (
+            f"{len(cv.folds)}-fold cross-validation (smallest order within {tol:g} % of the best)"
+        )
     print(
         f"N4SID order {res.order} ({fit.settings['order_source']}), horizon "
         f"{res.decomposition.horizon}, decimation {res.decomposition.decimate}, "
@@ -377,4 +504,4 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
         )
         if cv is not None:
             figures.append(plot_order_cv(cv, plots / "order_cv.png"))
-    return fit
+    return fit, notes

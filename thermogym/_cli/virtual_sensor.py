@@ -6,7 +6,7 @@ recording: the identified state-space model of ``--fit`` (``ss``, e.g. from
 outputs read from DATA, the other outputs estimated. Writes a recording with
 the estimates, their standard deviations (``<name>_std``) and the observer
 status; when DATA also holds the hidden signals (a run-in rig with internal
-RTDs) it prints the estimation RMSE, NRMSE fit (paper 001 eq 5) and the NEES
+RTDs) it prints the estimation RMSE, fit (NRMSE fit, paper 001 eq 5, in %) and the NEES
 consistency against them. ``--plot`` draws measured, true and estimated
 temperatures.
 """
@@ -15,15 +15,21 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from thermogym._cli.common import plan_outputs, positive
+from thermogym._cli.data import add_data_options, load_recordings
 from thermogym.errors import ConfigError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare the options."""
-    p.add_argument("data", help="recording (CSV/Parquet), uniform at a multiple of the model's dt")
+    p.add_argument(
+        "data",
+        help="recording (CSV/Parquet or dataset:NAME), uniform at a multiple of the model's dt",
+    )
     p.add_argument("--fit", required=True, help="FitResult JSON of an identified 'ss' model")
     p.add_argument("--out", required=True, help="recording to write (CSV/Parquet)")
     p.add_argument(
@@ -56,11 +62,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "channel, e.g. T_front_outer_housing=T_amb",
     )
     p.add_argument(
-        "--measurement-std", type=float, default=0.05, help="sensor noise std (default 0.05)"
+        "--measurement-std",
+        type=positive(what="a noise standard deviation"),
+        default=0.05,
+        help="sensor noise std (default 0.05)",
     )
     p.add_argument(
         "--process-std",
-        type=float,
+        type=positive(what="a noise standard deviation"),
         default=1e-3,
         help="process noise per sample at the outputs, models without K (default 1e-3)",
     )
@@ -77,6 +86,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "the number of measured channels (never the evaluation data)",
     )
     p.add_argument("--plot", help="also write a PNG of measured, true and estimated signals")
+    p.add_argument(
+        "--x0",
+        choices=("auto", "estimate", "steady", "zero"),
+        default="auto",
+        help="initial state: estimate (least squares on the measured channels), steady (the "
+        "equilibrium at the first readings, --rest applies), zero (at rest at the model's "
+        "operating point); auto (default): steady with --rest or without measured channels, "
+        "else estimate",
+    )
+    add_data_options(p)
 
 
 def _names(text: str | None) -> tuple[str, ...] | None:
@@ -98,6 +117,9 @@ def _pairs(items: list[str]) -> dict[str, float | str]:
             if not v.isidentifier():
                 raise ConfigError(f"{item!r}: {v!r} is neither a number nor a channel") from None
             out[k] = v
+            continue
+        if not np.isfinite(out[k]):
+            raise ConfigError(f"{item!r}: {v!r} is not a finite number")
     return out
 
 
@@ -118,12 +140,23 @@ def _at_rate(sensor, rec):  # type: ignore[no-untyped-def]
 
 
 def run(args: argparse.Namespace) -> int:
-    """Estimate, write, report."""
+    """Estimate, write, report (the outputs are checked first and replaced last)."""
+    plan = plan_outputs(
+        args,
+        files={"out": "recording", "plot": "figure"},
+        inputs=("data", "fit", "tune"),
+    )
+    with plan:
+        return _estimate(args, plan)
+
+
+def _estimate(args: argparse.Namespace, plan: Any) -> int:
     from thermogym.estimation import consistency
     from thermogym.firmware.export import sensor_from_fit
-    from thermogym.identification.metrics import nrmse, rmse
-    from thermogym.recording import Recording, read_recording, write_recording
+    from thermogym.identification.metrics import fit_text, nrmse, rmse
+    from thermogym.recording import Recording, write_recording
 
+    rest = _pairs(args.rest)
     sensor, fit = sensor_from_fit(
         args.fit,
         measured=_names(args.measured) or (),
@@ -133,17 +166,20 @@ def run(args: argparse.Namespace) -> int:
         process_std=args.process_std,
         disturbance_inputs=_names(args.disturbance) or (),
     )
-    rec = read_recording(args.data)
+    (rec,) = load_recordings([args.data], "DATA", args)
     sensor = _at_rate(sensor, rec)
-    rest = _pairs(args.rest)
     if args.tune:
-        cal = read_recording(args.tune)
+        (cal,) = load_recordings([args.tune], "--tune", args)
         cal_sensor = _at_rate(sensor, cal)
         u_c, z_c = cal_sensor.arrays(cal)
         _, alpha = cal_sensor.tuned(u_c, z_c)
         sensor = sensor.with_noise(sensor.noise.scaled(process=alpha))
         print(f"process noise scaled by {alpha:.4g} on {args.tune} (mean NIS = measured channels)")
-    est = sensor.estimate(rec, method=args.method, rest=rest or None)
+    x0 = args.x0
+    if x0 == "auto":  # --rest says the record starts at rest: the steady state then
+        x0 = "estimate" if sensor.measured_names and not rest else "steady"
+    print(f"initial state: {x0}")
+    est = sensor.estimate(rec, method=args.method, rest=rest or None, x0=x0)
     cols = {}
     units = {}
     for j, name in enumerate(est.names):
@@ -165,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
             "reference": sensor.reference,
         },
     )
-    write_recording(out, args.out)
+    write_recording(out, plan.path("--out"))
     print(
         f"virtual sensor ({args.method}, order {sensor.n_states}, dt {sensor.dt:g} s): "
         f"{rec.n_samples} samples -> {args.out}; exogenous {list(sensor.exogenous_names)}, "
@@ -186,7 +222,7 @@ def run(args: argparse.Namespace) -> int:
             truth[n] = Y[:, j]
             print(
                 f"  {n:<24} RMSE {float(rmse(Y[:, j], Yh[:, j])):.4f}   "
-                f"NRMSE fit {100 * float(nrmse(Y[:, j], Yh[:, j])):6.2f} %"
+                f"fit {fit_text(float(nrmse(Y[:, j], Yh[:, j])))}"
             )
         ok = np.isfinite(Y).all(axis=1)
         if ok.sum() > 2:
@@ -215,7 +251,7 @@ def run(args: argparse.Namespace) -> int:
         plot_virtual_sensor(
             rec.time,
             {n: est[n] for n in est.names},
-            args.plot,
+            plan.path("--plot"),
             measured={n: rec[n] for n in sensor.measured_names if n in rec},
             truth=truth or None,
             std={n: est.std[:, j] for j, n in enumerate(est.names)},

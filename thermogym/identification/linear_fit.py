@@ -10,12 +10,16 @@
   ``detrend``), ``"none"`` zero (data already prepared, e.g. the spindle's
   temperature rises above ambient). The FitResult stores the mode and the
   training values in ``settings["operating_point"]``.
-* :func:`predict_fit` simulates an ``ss`` or ``foptd`` FitResult on a
-  recording the way the identification evaluated it (operating point of that
-  recording, initial state estimated or zero) and :func:`evaluate_fit` turns
-  that into the metrics of :mod:`thermogym.identification.metrics`.
-  :func:`simulate_recording` is the same as a recording, for
-  ``thermogym simulate --params fit.json``.
+* :func:`predict` simulates (or predicts ``k_step`` ahead) an ``ss`` or
+  ``foptd`` FitResult on a recording: the model's own operating point (stored
+  in the fit's ``model_config``; older ``ss`` fits keep it in the settings) or
+  the recording's, and the initial state ``x0`` = ``"estimate"`` (least
+  squares on the recording's outputs), ``"steady"`` or ``"zero"``
+  (``"auto"``: estimate when the outputs are there). Every command that shows
+  a linear fit on data goes through it, so they agree; the diagnosis and other
+  callers use it too. :func:`predict_fit` returns just the outputs,
+  :func:`evaluate_fit` the metrics of :mod:`thermogym.identification.metrics`,
+  :func:`simulate_recording` a recording (``thermogym simulate --params``).
 """
 
 from __future__ import annotations
@@ -208,6 +212,10 @@ class Prediction:
         Operating point applied (absolute units).
     operating : str
         ``"fit"`` (the FitResult's) or ``"recording"`` (the recording's own).
+    horizon : int or None
+        Prediction horizon in samples (``None``: simulation).
+    note : str
+        How a requested horizon was treated, when not as asked.
     """
 
     outputs: NDArray[np.float64]
@@ -217,6 +225,8 @@ class Prediction:
     u_op: NDArray[np.float64]
     y_op: NDArray[np.float64]
     operating: str
+    horizon: int | None = None
+    note: str = ""
 
 
 def fit_model(
@@ -268,6 +278,7 @@ def predict(
     *,
     x0: str = "auto",
     operating: str = "auto",
+    k_step: int | None = None,
 ) -> Prediction:
     """Simulate a linear FitResult (``ss`` or ``foptd``) on a recording's inputs.
 
@@ -298,6 +309,12 @@ def predict(
         ``"rest"`` (the model describes deviations from each experiment's
         start), the fit's otherwise. Fits whose offsets were estimated (mode
         ``"estimate"``) and recordings without outputs always use the fit's.
+    k_step : int, optional
+        Predict ``k_step`` samples ahead from the measured outputs (MATLAB
+        ``compare(data, sys, k)``) with the state-space innovation gain; a
+        model without a noise model (FOPTD, ``ss`` without ``K``) predicts as
+        it simulates (an output-error structure), and ``note`` says so.
+        Default: simulation (infinite horizon).
 
     Returns
     -------
@@ -342,7 +359,7 @@ def predict(
     if operating == "auto":
         operating = "recording" if mode_op in ("initial", "rest") else "fit"
     if operating == "recording" and y is not None and mode_op in OPERATING_POINTS:
-        u_rec, y_rec = operating_point(u, y, str(op["mode"]))
+        u_rec, y_rec = operating_point(u, y, str(mode_op))
         model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec)
         used = "recording"
     mode = x0
@@ -353,6 +370,32 @@ def predict(
             f"x0='estimate' needs the output column(s) {outs} in recording "
             f"{rec.experiment_id!r}; it has {list(rec.columns)} (use x0='steady' or 'zero')"
         )
+    horizon: int | None = None
+    note = ""
+    if k_step is not None:
+        if isinstance(k_step, bool) or int(k_step) != k_step or k_step < 1:
+            raise ConfigError(f"k_step is {k_step!r}; expected a whole number of samples >= 1")
+        horizon = int(k_step)
+        if y is None:
+            raise RecordingError(
+                f"a {horizon}-step prediction needs the measured outputs {outs} in recording "
+                f"{rec.experiment_id!r}"
+            )
+        if not (isinstance(model, StateSpaceModel) and model.has_K):
+            note = (
+                f"{fit.model} fit without a noise model: its {horizon}-step prediction is its "
+                "simulation (output-error structure)"
+            )
+        elif model.dt is not None and abs(model.dt - rec.dt) > 1e-9 * model.dt:
+            raise RecordingError(
+                f"a {horizon}-step prediction runs at the model's period {model.dt!r} s; "
+                f"recording {rec.experiment_id!r} is sampled at {rec.dt!r} s (resample it)"
+            )
+        else:
+            xi = model.start_state(mode, u, rec.dt, theta, y=y if mode == "estimate" else None)
+            yk = model.predict(y, u, theta, x0=xi, horizon=horizon)[0]
+            u_op, y_op = (a[0] for a in model.operating_point(theta))
+            return Prediction(yk, tuple(outs), mode, xi[0], u_op, y_op, used, horizon)
     sim = model.simulate(
         u,
         rec.dt,
@@ -364,7 +407,9 @@ def predict(
     )
     assert sim.states is not None
     u_op, y_op = (a[0] for a in model.operating_point(theta))
-    return Prediction(sim.outputs[0], tuple(outs), mode, sim.states[0, 0].copy(), u_op, y_op, used)
+    return Prediction(
+        sim.outputs[0], tuple(outs), mode, sim.states[0, 0].copy(), u_op, y_op, used, horizon, note
+    )
 
 
 def predict_fit(
