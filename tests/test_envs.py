@@ -161,8 +161,8 @@ def test_wrong_model_and_plant_combinations_are_refused():
         gym.make("thermogym/TCLab-v0", plant="rig")
     with pytest.raises(ConfigError, match="rig_effects"):
         gym.make("thermogym/AXT211Valve-v0", rig_effects=["phase_change"])
-    with pytest.raises(ConfigError, match="sensor_lag"):
-        gym.make("thermogym/AXT211Valve-v0", plant="rig", rig_effects=["sensor_lag"])
+    with pytest.raises(ConfigError, match="transport_delay"):
+        gym.make("thermogym/AXT211Valve-v0", plant="rig", rig_effects=["transport_delay"])
     with pytest.raises(ConfigError, match="episode_s"):
         gym.make("thermogym/AXT211Valve-v0", episode_s=95.0)
 
@@ -482,20 +482,28 @@ def test_render_rgb_array_and_human(tmp_path):
     assert path.read_bytes()[:4] == b"\x89PNG"  # written at the episode end
 
 
-def test_rig_plant_differs_from_the_model_only_through_its_physics():
+def test_rig_plant_runs_the_rigs_own_physics_and_sensors():
     kw = {"action_mode": "onoff", "episode_s": 1800.0, "sensor_noise": False}
     on = lambda o: 1  # noqa: E731
-    _, model_h, _, _ = _history("thermogym/AXT211Valve-v0", on, **kw)
-    env, rig_h, _, _ = _history(
+    env, rig_h, _, _ = _history("thermogym/AXT211Valve-v0", on, plant="rig", **kw)
+    assert env.plant_kind == "rig"
+    # the rig's true plant runs (not the model): its own simulation of the same input
+    from thermogym.rigs.axt211 import AXT211Plant, specimen_spread
+
+    plant = AXT211Plant()
+    spec = specimen_spread(np.random.default_rng(0), n=1)  # specimen_seed=0
+    u = np.tile([1.0, 24.0, 25.0], (181, 1))
+    truth = plant.simulate(u, 10.0, spec).output("x_V")[0]
+    np.testing.assert_allclose(rig_h["x_V"], truth, atol=1e-9)
+    # a concealed effect of the rig (latent heat of another wax grade) delays the opening
+    _, eff_h, _, _ = _history(
         "thermogym/AXT211Valve-v0", on, plant="rig", rig_effects=["phase_change"], **kw
     )
-    assert env.plant_kind == "rig"
-    assert "L_melt" in env.model.param_names
-    # the latent heat delays the opening
-    assert np.argmax(rig_h["x_V"] > 1.0) > np.argmax(model_h["x_V"] > 1.0)
-    # the rig's sensors: LVDT noise 5 µm instead of the field sensor's 20 µm
+    assert np.argmax(eff_h["x_V"] > 1.0) > np.argmax(rig_h["x_V"] > 1.0)
+    # the rig's sensors: its LVDT (4 µm white, 3 µm coloured) instead of the field sensor
     e = gym.make("thermogym/AXT211Valve-v0", plant="rig").unwrapped
-    assert e._e.meas[0, 0] == pytest.approx(0.005)
+    lvdt = e._e.rsens.sensors[0]
+    assert lvdt.noise == pytest.approx(0.004) and lvdt.colored == pytest.approx(0.003)
     # sensor offset on an observed channel
     e = gym.make(
         "thermogym/SpindleThermal-v0", plant="rig", rig_effects=["sensor_offset"],
@@ -509,7 +517,7 @@ def test_rig_plant_differs_from_the_model_only_through_its_physics():
         sensor_noise=False,
     ).unwrapped  # fmt: skip
     obs, _ = e.reset(seed=0)
-    assert obs[1] - e.true_outputs()["T_G"] == pytest.approx(1.5, abs=0.02)  # 0.01 K steps
+    assert obs[1] - e.true_outputs()["T_G"] == pytest.approx(1.5, abs=1e-9)
     with pytest.raises(ConfigError, match="offset is 'abc'; expected a number"):
         gym.make("thermogym/AXT211Valve-v0", plant="rig",
                  rig_effects=["sensor_offset:signal=T_G,offset=abc"])  # fmt: skip

@@ -65,12 +65,7 @@ NEVER_IMPORTS = {"models": ("matplotlib",), "estimation": ("matplotlib",)}
 #: Rule violations known today, each with the issue that removes it; the stale-exception
 #: test fails once one no longer occurs, so that it is deleted here.
 KNOWN_VIOLATIONS: dict[tuple[str, str], str] = {
-    # rigs import plant-model classes: issue 14 removes it
-    ("thermogym.rigs.base", "thermogym.models.base.Model"): "issue 14",
-    ("thermogym.rigs.base", "thermogym.models.registry.get_model"): "issue 14",
-    ("thermogym.rigs.base", "thermogym.models.thermal_network.NetworkArrays"): "issue 14",
-    ("thermogym.rigs.base", "thermogym.models.thermal_network.ThermalNetworkModel"): "issue 14",
-    ("thermogym.rigs.axt211", "thermogym.models.axt211.AXT211"): "issue 14",
+    # (issue 14 removed the transitional ModelRig with the strut's and spindle's true plants)
 }
 #: Import cycles known today (the modules of each strongly connected component).
 KNOWN_CYCLES: dict[frozenset[str], str] = {

@@ -27,9 +27,10 @@ def test_axt211_steps_cover_the_valid_ranges_and_fit_the_model(axt_steps):
     model = get_model("axt211")
     for run in axt_steps:
         assert set(model.exogenous_names) <= set(run.columns)
-        # measured minus noise-free values has the sensor's noise level
-        resid = run.columns["T_P"] - run.truth["T_P"]
-        assert 0.07 < resid.std() < 0.13
+        # measured minus noise-free values has the sensor's noise level where the signal is
+        # slow (the thermocouple's 3 s lag aside): 0.08 K white + 0.05 K coloured
+        resid = (run.columns["T_P"] - run.truth["T_P"])[-1200:]
+        assert 0.07 < 1.4826 * np.median(np.abs(resid - np.median(resid))) < 0.13
         assert np.all(run.columns["x_V"] >= -0.03) and np.all(run.columns["x_V"] <= 4.53)
 
 
@@ -142,7 +143,9 @@ def test_physical_effect_is_switched_on_in_the_plant():
     sat = get_rig("strut", ["input_dependent_heat_transfer"]).run(
         "steps", seed=2, feed_rates=[30.0]
     )[0]
-    assert sat.truth["T_nut"][-1] < lin.truth["T_nut"][-1] - 1.0
+    # the strut rig's own forced convection is always there; the concealed one is the drive
+    # motor's shaft fan (self-ventilated motor), which cools the drive
+    assert sat.truth["T_drive"][-1] < lin.truth["T_drive"][-1] - 1.0
 
 
 def test_written_recordings_read_back_with_manifest(tmp_path):

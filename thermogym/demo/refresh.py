@@ -97,7 +97,7 @@ def _valve(ctx: DemoContext, res: StageResult) -> None:
             "parameter",
             "env before (package nominal)",
             "env after refresh (identified)",
-            "rig truth",
+            "rig's matching value",
             "change",
         ],
         rows,

@@ -1,9 +1,12 @@
 """Stage 1: the virtual test rigs run the papers' experiments.
 
-The strut rig carries a *concealed* effect: forced convection that grows
-with the feed rate (``input_dependent_heat_transfer``, the nonlinearity paper
-000 section 4.1 names as the reason its FOPTD set fails at other feed rates).
-Nothing downstream is told about it; stage 3 has to find it.
+The strut and spindle rigs are plants of their own, richer than the models
+(:mod:`thermogym.rigs.strut`: the rotating screw's forced convection grows
+with the feed rate, the nonlinearity paper 000 section 4.1 names as the
+reason its linear models fail at other feed rates). The strut rig also
+carries a *concealed* effect (``input_dependent_heat_transfer``: a
+self-ventilated drive motor whose fan cools it harder at higher feed rates).
+Nothing downstream is told about either; stage 3 has to find them.
 """
 
 from __future__ import annotations
@@ -19,19 +22,20 @@ __all__ = ["CONCEALED", "axt211_specimen", "load_rigs", "stage_rigs"]
 CONCEALED = "input_dependent_heat_transfer"
 
 
-def axt211_specimen(seed: int) -> tuple[int, dict[str, float]]:
-    """The AXT211 rig's specimen: parameters drawn from the manufacturing spread.
+def axt211_specimen(seed: int) -> tuple[int, Any]:
+    """The AXT211 rig's specimen: its physical parameters drawn from the manufacturing spread.
 
     Returns the specimen seed (``specimen_seed=`` of the AXT211 environments
-    with ``plant="rig"`` gives the same actuator) and the parameter overrides
-    (paper 002 section VIII spread, :func:`thermogym.rigs.axt211.specimen_spread`).
+    with ``plant="rig"`` gives the same actuator) and the specimen
+    (:class:`~thermogym.rigs.base.Specimens` of one; paper 002 section VIII
+    spread, :func:`thermogym.rigs.axt211.specimen_spread`).
     """
     import numpy as np
 
     from thermogym.rigs.axt211 import specimen_spread
 
     s = int(seed) + 7
-    return s, specimen_spread(np.random.default_rng(s), n=1)[0]
+    return s, specimen_spread(np.random.default_rng(s), n=1)
 
 
 def _run_axt211(ctx: DemoContext, proto: str, folder: Any, seed: int) -> list[Any]:
@@ -109,9 +113,11 @@ def stage_rigs(ctx: DemoContext, res: StageResult) -> None:
         "* AXT211 (paper 002): power steps on the 19-29 V × 0-50 °C grid, the closed-loop "
         "temperature staircase (stroke gain and backlash) and a PWM test. The step is "
         "overlaid with the package's nominal model.\n"
-        f"* Strut (paper 000): feed-rate steps at 20, 25 and 30 m/min. The rig carries a "
-        f"**concealed effect** (`{CONCEALED}`: convection that grows with the feed rate) that "
-        "no model downstream is told about.\n"
+        f"* Strut (paper 000): feed-rate steps at 20, 25 and 30 m/min on a plant of its own "
+        "(conduction along the screw and the push tube, the rotating screw's convection "
+        "growing with the feed rate, copper losses growing with the winding temperature). The "
+        f"rig also carries a **concealed effect** (`{CONCEALED}`: the drive motor's fan cools "
+        "it harder at higher feed rates) that no model downstream is told about.\n"
         f"* Spindle (paper 001): run-in days at {', '.join(map(str, speeds))} rpm (two folds "
         f"each) and a validation day at {', '.join(map(str, vspeeds))} rpm, raw: up to "
         f"{n_raw} rows a day at 4.17 Hz per module."
@@ -120,8 +126,11 @@ def stage_rigs(ctx: DemoContext, res: StageResult) -> None:
     res.text += (
         f"\n\nThe AXT211 rig is one actuator from the manufacturing spread of paper 002 "
         f"section VIII (specimen seed {spec_seed}: "
-        + ", ".join(f"`{k}` = {v:.4g}" for k, v in spec.items())
-        + "), not the package's nominal actuator: identification has to find it."
+        + ", ".join(
+            f"`{k}` = {spec[k][0]:.4g}" for k in ("T_m", "L_w", "R_min", "T_ref", "c_backlash")
+        )
+        + ", and the rest of its physical parameters), not the package's nominal actuator: "
+        "identification has to find it with a model that lacks part of the rig's physics."
     )
     res.highlights["recordings written"] = str(sum(len(v) for v in recs.values()))
 

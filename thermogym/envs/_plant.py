@@ -8,11 +8,14 @@
   nominal parameters are used. The FitResult must be of a model the
   environment can run (its name is checked, and its version by
   :meth:`FitResult.build_model`).
-* ``plant="rig"``: the virtual test rig's true plant
-  (:meth:`thermogym.rigs.base.Rig.plant`): the model with the rig's physical
-  effects, its parameter overrides and one manufacturing specimen, measured
-  with the rig's sensors. Nothing of the rig's effects is visible to the
-  controller except through the measurements.
+* ``plant="rig"``: the virtual test rig's true plant. For a rig with a true
+  plant of its own (:class:`thermogym.rigs.base.TruePlant`: the AXT211, room,
+  strut and spindle rigs) the environment steps that plant, one specimen drawn from its
+  manufacturing spread, and measures through the rig's sensors
+  (:mod:`thermogym.envs._rig`); :attr:`Plant.model` is then only the nominal
+  model (shapes and names), not what runs (the strut and spindle envs step
+  their rigs' plants in :mod:`thermogym.envs._network`). Nothing of the rig's
+  effects is visible to the controller except through the measurements.
 
 Environments read FitResults through :mod:`thermogym.fitresult` only; they
 never import :mod:`thermogym.identification` (DESIGN.md dependency rule).
@@ -33,7 +36,7 @@ from thermogym.errors import ConfigError, ParameterError
 from thermogym.fitresult import FitResult, load_fit
 from thermogym.models.base import Model
 
-__all__ = ["ParamsLike", "Plant", "is_overrides", "make_sampler", "resolve_plant"]
+__all__ = ["ParamsLike", "Plant", "is_overrides", "make_sampler", "resolve_plant", "rig_only"]
 
 ParamsLike = FitResult | str | os.PathLike[str] | Mapping[str, Any] | None
 PLANTS = ("model", "rig")
@@ -58,6 +61,12 @@ class Plant:
         Effects the rig carries (``plant="rig"`` only).
     sensors : dict
         Rig sensor specifications by signal name (``plant="rig"`` only).
+    rig : Rig or None
+        The rig (``plant="rig"`` only).
+    true_plant : TruePlant or None
+        The rig's true plant, when it has one (``plant="rig"``).
+    specimens : Specimens or None
+        The specimen of the true plant (one).
     """
 
     model: Model
@@ -67,6 +76,8 @@ class Plant:
     rig_effects: tuple[Any, ...] = ()
     sensors: dict[str, Any] = field(default_factory=dict)
     rig: Any = None
+    true_plant: Any = None
+    specimens: Any = None
 
     def sensor_errors(
         self, channels: Sequence[str], n: int
@@ -140,7 +151,8 @@ def resolve_plant(
     rig_effects: Sequence[Any] = (),
     stepwise_effects: Sequence[str] = (),
     rig_model: Callable[[Model, Sequence[str]], Model] | None = None,
-    specimen: Mapping[str, float] | None = None,
+    specimen: Mapping[str, float] | Any | None = None,
+    rig_options: Mapping[str, Any] | None = None,
 ) -> Plant:
     """Resolve ``params`` / ``plant`` keywords into a :class:`Plant`.
 
@@ -165,8 +177,11 @@ def resolve_plant(
         ``rig_model(rig_plant_model, internal_effects) -> Model``: the model the
         environment runs for the rig (e.g. the room around the rig's
         actuator); default: the rig's own model.
-    specimen : mapping, optional
-        Parameter overrides of the rig's specimen (manufacturing spread).
+    specimen : mapping or Specimens, optional
+        The rig's specimen (manufacturing spread): parameter overrides, or a
+        :class:`~thermogym.rigs.base.Specimens` of one for a true-plant rig.
+    rig_options : mapping, optional
+        Keyword arguments of the rig's constructor (e.g. ``valve`` of the room rig).
 
     Raises
     ------
@@ -224,9 +239,26 @@ def resolve_plant(
         )
     from thermogym.rigs import get_rig  # the rigs (~0.4 s) load only for plant='rig'
 
-    r = get_rig(rig, rig_effects)
-    if specimen:
+    r = get_rig(rig, rig_effects, **dict(rig_options or {}))
+    if specimen is not None and (not isinstance(specimen, Mapping) or specimen):
         r = r.with_specimen(specimen)
+    if getattr(r, "plant_cls", None) is not None:
+        # a true plant of the rig's own: the environment steps it; the model stays nominal
+        model = default() if callable(default) else load_params(default, models, env).build_model()  # type: ignore[union-attr]
+        spec = r.specimen
+        # the model's nominal parameters (shapes and names only) and, in its arrays, the rig
+        # specimen's physical parameters: the fingerprint tells one rig specimen from another
+        fit = FitResult.from_model(
+            model,
+            method="nominal",
+            notes=f"plant='rig': the virtual rig {rig!r} runs, not this model",
+            arrays={"rig_specimen": [float(spec[n][0]) for n in spec.names]},
+            settings={"rig": rig, "rig_specimen_names": list(spec.names)},
+        )
+        return Plant(
+            model, fit.theta(model), "rig", fit, tuple(r.effects), dict(r.sensors), r,
+            r.plant(), r.specimen,
+        )  # fmt: skip
     base, overrides = r.plant()
     model = base
     if rig_model is not None:
@@ -333,3 +365,11 @@ def make_sampler(
         raise ParameterError(f"no valid parameter set in 20 draws; last: {last}") from last
 
     return sampler
+
+
+def rig_only(env: str, what: str) -> ConfigError:
+    """The error for a model-only operation on the rig (parameters, randomisation)."""
+    return ConfigError(
+        f"{env}: {what} is not available with plant='rig': the rig's true plant is not a model "
+        "with parameters (use plant='model'; the rig's specimen is set by specimen_seed)"
+    )

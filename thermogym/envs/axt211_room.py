@@ -133,9 +133,10 @@ from thermogym.envs._kernels import (
     meas_array,
     measure,
     put_lane,
+    tp_buffer_full,
     tp_push,
 )
-from thermogym.envs._plant import ParamsLike, resolve_plant
+from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
 from thermogym.envs.profiles import synthetic_weather
 from thermogym.errors import ConfigError
@@ -165,11 +166,13 @@ class RoomConfig:
     params: ParamsLike = None
     """FitResult of model ``room``; default nominal values."""
     plant: str = "model"
-    """``"model"`` or ``"rig"`` (the room around the AXT211 rig's true actuator)."""
+    """``"model"`` or ``"rig"``: the room rig's true plant (:mod:`thermogym.rigs.room`:
+    heating branch, radiator, four-node zone, the AXT211 rig as actuator), observed
+    through its sensors."""
     rig_effects: Sequence[str] = ()
-    """Actuator effects of the AXT211 rig (``plant="rig"``)."""
+    """Concealed actuator effects of the room rig (``plant="rig"``)."""
     specimen_seed: int | None = 0
-    """Rig only: seed of the actuator specimen (None: nominal actuator)."""
+    """Rig only: seed of the actuator specimen from the AXT211 spread (None: nominal)."""
     valve: str = "linear"
     """Valve characteristic of the room model (``"linear"``, ``"equal_percentage"``)."""
     action_mode: str = "duty"
@@ -904,20 +907,23 @@ class _RoomEngine(Engine):
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
         specimen = None
         if cfg.plant == "rig" and cfg.specimen_seed is not None:
+            # the actuator drawn from the AXT211 spread (as AXT211Valve's), the room nominal
             from thermogym.rigs.axt211 import specimen_spread
+            from thermogym.rigs.room import RoomPlant
 
-            specimen = specimen_spread(np.random.default_rng(cfg.specimen_seed), n=1)[0]
+            act = specimen_spread(np.random.default_rng(cfg.specimen_seed), n=1)
+            specimen = RoomPlant(cfg.valve).nominal().replace({n: act[n] for n in act.names})
         plant = resolve_plant(
             env,
             params=cfg.params,
             plant=cfg.plant,
             models=("room",),
             default=lambda: RoomModel(valve=cfg.valve),
-            rig="axt211",
+            rig="room",
             rig_effects=cfg.rig_effects,
             stepwise_effects=_STEPWISE_RIG_EFFECTS,
-            rig_model=lambda base, eff: RoomModel(valve=cfg.valve, effects=eff),
             specimen=specimen,
+            rig_options={"valve": cfg.valve},
         )
         super().__init__(B, plant, _NACC, tp_capacity=256)
         model: RoomModel = plant.model  # type: ignore[assignment]
@@ -1078,6 +1084,138 @@ class _RoomEngine(Engine):
         return done_steps, total
 
 
+class _RoomRigEngine(_RoomEngine):
+    """The room on the room rig's true plant (``plant="rig"``, :mod:`thermogym.envs._rig`).
+
+    Every control period the rig (radiator branch, four-node zone, the AXT211 rig as
+    actuator) advances all plants at once, heater on for ``d·T`` then off; the outdoor
+    temperature and the gains of the period are those the model path uses, split into
+    solar and occupancy gains; KPIs and reward come from the rig's physical state through
+    :func:`_room_post`, the observation from the rig's sensors.
+    """
+
+    def __init__(self, B: int, cfg: RoomConfig) -> None:
+        from thermogym.envs._rig import RigSensors  # the rigs load only for plant='rig'
+
+        super().__init__(B, cfg)
+        pl = self.plant
+        self.tp = pl.true_plant
+        self.spec = pl.specimens.take(np.zeros(B, dtype=np.int64))
+        self.xr = np.zeros((B, len(self.tp.state_names)))
+        names = self.tp.state_names
+        self._iw, self._ig, self._ip, self._iv, self._ie = (
+            names.index(n) for n in ("T_w", "T_g", "x_p", "x_v", "E")
+        )
+        self._ia, self._ii, self._iq = (names.index(n) for n in ("T_air", "T_int", "Q_J"))
+        self._irad = [i for i, n in enumerate(names) if n.startswith("T_rad_")]
+        lo, hi = self.obs_bounds()
+        spans = [(float(lo[0]), float(hi[0])), (float(lo[2]), float(hi[2]))]
+        self.rsens = RigSensors(ENV, pl.rig, _CH, spans, cfg.sensor_noise, _CH, B)
+        self._rngs: Sequence[np.random.Generator] = ()
+
+    def apply_fit(self, fit: ParamsLike, rows: Sequence[int] | None = None) -> dict[str, Any]:
+        raise rig_only(ENV, "set_parameters / a FitResult")
+
+    def randomize(self, method: str | None, **kwargs: Any) -> None:
+        if method is not None:
+            raise rig_only(ENV, "randomize")
+        super().randomize(None)
+
+    def rollout(self, controller, state, rng, max_steps):  # type: ignore[no-untyped-def]
+        raise rig_only(ENV, "run_compiled")
+
+    def reset_rows(self, rows: Sequence[int], rngs: Sequence[np.random.Generator]) -> None:
+        self._rngs = rngs
+        super().reset_rows(rows, rngs)
+
+    def step(self, rngs: Sequence[np.random.Generator], active: NDArray[np.bool_] | None) -> None:
+        self._rngs = rngs
+        super().step(rngs, active)
+
+    def _reset_row(self, b: int, rng: np.random.Generator) -> None:
+        super()._reset_row(b, rng)
+        _, t0, base = self.dist[b]
+        Tout = _table(self.tab, b, 0, base, t0)
+        self.xr[b] = self.tp.warm_state(self.spec.take([b]), self.x[b, 5], Tout)[0]
+
+    def _view(self) -> NDArray[np.float64]:
+        # the rig's state in the columns _room_post reads: wax, housing, piston, stem, mean
+        # radiator, zone air, internal mass
+        xr = self.xr
+        return np.column_stack(
+            [xr[:, self._iw], xr[:, self._ig], xr[:, self._ip], xr[:, self._iv],
+             xr[:, self._irad].mean(axis=1), xr[:, self._ia], xr[:, self._ii]]
+        )  # fmt: skip
+
+    def _truth(self) -> NDArray[np.float64]:
+        # observed channels: zone air, the outdoor temperature of the coming period
+        return np.column_stack([self.xr[:, self._ia], self.acc[:, _A_TOUT]])
+
+    def _post(self, rows: Any, mode: int, d: Any, E: Any, Q: Any, xv0: Any) -> None:
+        xs = self._view()
+        for b in rows:
+            _room_post(b, mode, d[b], E[b], Q[b], xv0[b], xs, self.p, self.dist, self.tab,
+                       self.acc, self.tpbuf, self.ctr, self.noise, self.meas, self.cfgv,
+                       self.obs, self.out, self.sig)  # fmt: skip
+
+    def _kernel(self, mode: int) -> int:
+        if tp_buffer_full(self.active, self.ctr, self.tpbuf):
+            return 2  # ST_GROW: the engine grows the turning-point buffer and calls again
+        rows = np.flatnonzero(self.active)
+        zero = np.zeros(self.B)
+        if mode == 1:
+            self._post(rows, 1, zero, zero, zero, self.xr[:, self._iv])
+            first = self.rsens.start(rows, self._truth()[rows], self._rngs)
+            self.obs[rows, 0] = first[:, 0]
+            self.obs[rows, 2] = first[:, 1]
+            return 0
+        status = 0
+        ok = np.zeros(self.B, dtype=np.bool_)
+        d = np.zeros(self.B)
+        for b in rows:
+            v = _room_action(b, self.act, self.cfgv, self.ctr)
+            if v < 0.0:
+                status = 1
+            else:
+                ok[b], d[b] = True, v
+        T = self.cfgv[_T]
+        t = self.dist[:, 1] + self.ctr[:, C_K] * T
+        # the period's outdoor temperature and gains (set by _room_post), occupancy split off
+        Tout = self.acc[:, _A_TOUT].copy()
+        Qint = self.acc[:, _A_QINT].copy()
+        Qocc = np.array([self.cfgv[_GO] if _clock(tb, self.cfgv)[0] else self.cfgv[_GU]
+                         for tb in t])  # fmt: skip
+        Qsol = Qint - Qocc
+        xv0 = self.xr[:, self._iv].copy()
+        E0 = self.xr[:, self._ie].copy()
+        Q0 = self.xr[:, self._iq].copy()
+        kU = self.dist[:, 0]
+        u_on = np.column_stack([np.ones(self.B), kU, Tout, Qsol, Qocc])
+        u_off = u_on.copy()
+        u_off[:, 0] = 0.0
+        ton = np.where(ok, d * T, 0.0)
+        xr = self.tp.step(self.xr, u_on, ton, self.spec, t)
+        self.xr = self.tp.step(xr, u_off, np.where(ok, T - ton, 0.0), self.spec, t + ton)
+        E = self.xr[:, self._ie] - E0
+        Q = self.xr[:, self._iq] - Q0
+        self._post(np.flatnonzero(ok), 0, d, E, Q, xv0)
+        readings = self.rsens.read(ok, self._truth(), T, self._rngs)
+        self.obs[ok, 0] = readings[ok, 0]
+        self.obs[ok, 2] = readings[ok, 1]
+        return status
+
+    def trip_reason(self, b: int) -> str:
+        Tz, Tw = self.xr[b, self._ia], self.xr[b, self._iw]
+        if Tz < self.cfgv[_FROST]:
+            return f"frost: zone at {Tz:.1f} °C below frost_C = {self.cfgv[_FROST]} °C"
+        return f"wax temperature {Tw:.1f} °C above trip_C = {self.cfgv[_TRIP]} °C"
+
+
+def _room_engine(B: int, cfg: RoomConfig) -> _RoomEngine:
+    # the rig's true plant or the identified model's kernels
+    return _RoomRigEngine(B, cfg) if cfg.plant == "rig" else _RoomEngine(B, cfg)
+
+
 class AXT211RoomEnv(ThermoEnv):
     """Room temperature control through the AXT211 valve (``thermogym/AXT211Room-v0``).
 
@@ -1103,7 +1241,7 @@ class AXT211RoomEnv(ThermoEnv):
 
     env_name = ENV
     config_cls = RoomConfig
-    engine_cls = _RoomEngine
+    engine_cls = staticmethod(_room_engine)
 
     def run_compiled(
         self,

@@ -117,9 +117,10 @@ from thermogym.envs._kernels import (
     meas_array,
     measure,
     put_lane,
+    tp_buffer_full,
     tp_push,
 )
-from thermogym.envs._plant import ParamsLike, resolve_plant
+from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
 from thermogym.errors import ConfigError
 from thermogym.models import axt211 as _ax
@@ -141,6 +142,7 @@ _STEPWISE_RIG_EFFECTS = (
     "nonlinear_heat_transfer",
     "sensor_offset",
     "sensor_drift",
+    "sensor_lag",
 )
 
 
@@ -151,7 +153,8 @@ class ValveConfig:
     params: ParamsLike = None
     """FitResult (object, JSON path or dict) of model ``axt211``; default nominal values."""
     plant: str = "model"
-    """``"model"``: the identified model; ``"rig"``: the virtual rig's true plant."""
+    """``"model"``: the identified model; ``"rig"``: the AXT211 rig's true plant
+    (:mod:`thermogym.rigs.axt211`), observed through its sensors."""
     rig_effects: Sequence[str] = ()
     """Rig effects (``plant="rig"``), e.g. ``["phase_change", "backlash:c_backlash=0.3"]``."""
     specimen_seed: int | None = 0
@@ -581,7 +584,7 @@ class _ValveEngine(Engine):
             # the rigs (~0.4 s) load only for plant='rig'
             from thermogym.rigs.axt211 import specimen_spread
 
-            specimen = specimen_spread(np.random.default_rng(cfg.specimen_seed), n=1)[0]
+            specimen = specimen_spread(np.random.default_rng(cfg.specimen_seed), n=1)
         plant = resolve_plant(
             env,
             params=cfg.params,
@@ -719,6 +722,111 @@ class _ValveEngine(Engine):
         return f"wax temperature {self.x[b, 0]:.1f} °C above trip_C = {self.cfgv[_TRIP]} °C"
 
 
+class _ValveRigEngine(_ValveEngine):
+    """The valve on the AXT211 rig's true plant (``plant="rig"``, :mod:`thermogym.envs._rig`).
+
+    Every control period the rig's plant advances all plants at once, heater on for
+    ``d·T`` then off (the rig's own sub-steps); KPIs, reward and the noise-free signals
+    come from the rig's physical state through :func:`_valve_post`, the observation
+    from the rig's sensors.
+    """
+
+    def __init__(self, B: int, cfg: ValveConfig) -> None:
+        from thermogym.envs._rig import RigSensors  # the rigs load only for plant='rig'
+
+        super().__init__(B, cfg)
+        pl = self.plant
+        self.tp = pl.true_plant
+        self.spec = pl.specimens.take(np.zeros(B, dtype=np.int64))
+        self.xr = np.zeros((B, len(self.tp.state_names)))
+        # state columns of the rig: cartridge (wax) and housing temperature, stem, energy
+        self._iw, self._ig, self._iv, self._ie = (
+            self.tp.state_names.index(n) for n in ("T_w", "T_g", "x_v", "E")
+        )
+        self.xmax = float(self.spec["x_max"][0])
+        lo, hi = self.obs_bounds()
+        spans = [(float(lo[j]), float(hi[j])) for j in range(4)]
+        self.rsens = RigSensors(ENV, pl.rig, _CH, spans, cfg.sensor_noise, _CH, B)
+        self._rngs: Sequence[np.random.Generator] = ()
+
+    def apply_fit(self, fit: ParamsLike, rows: Sequence[int] | None = None) -> dict[str, Any]:
+        raise rig_only(ENV, "set_parameters / a FitResult")
+
+    def randomize(self, method: str | None, **kwargs: Any) -> None:
+        if method is not None:
+            raise rig_only(ENV, "randomize")
+        super().randomize(None)
+
+    def reset_rows(self, rows: Sequence[int], rngs: Sequence[np.random.Generator]) -> None:
+        self._rngs = rngs
+        super().reset_rows(rows, rngs)
+
+    def step(self, rngs: Sequence[np.random.Generator], active: NDArray[np.bool_] | None) -> None:
+        self._rngs = rngs
+        super().step(rngs, active)
+
+    def _reset_row(self, b: int, rng: np.random.Generator) -> None:
+        super()._reset_row(b, rng)
+        kU, TU = self.dist[b]
+        self.xr[b] = self.tp.initial_state(self.spec.take([b]), np.array([0.0, kU, TU]))[0]
+
+    def _truth(self) -> NDArray[np.float64]:
+        # the observed channels' true values: stem stroke, housing, ambient, supply
+        return np.column_stack(
+            [self.xr[:, self._iv], self.xr[:, self._ig], self.dist[:, 1], self.dist[:, 0]]
+        )
+
+    def _kernel(self, mode: int) -> int:
+        iw, ig, iv, ie = self._iw, self._ig, self._iv, self._ie
+        if tp_buffer_full(self.active, self.ctr, self.tpbuf):
+            return 2  # ST_GROW: the engine grows the turning-point buffer and calls again
+        rows = np.flatnonzero(self.active)
+        xr = self.xr
+        args = (self.dist, self.sp, self.acc, self.tpbuf, self.ctr, self.noise, self.meas,
+                self.cfgv, self.obs, self.out, self.sig)  # fmt: skip
+        if mode == 1:
+            for b in rows:
+                _valve_post(b, 1, 0.0, 0.0, xr[b, iv], xr[b, iw], xr[b, ig],
+                            xr[b, iv], self.xmax, *args)  # fmt: skip
+            self.obs[rows, :4] = self.rsens.start(rows, self._truth()[rows], self._rngs)
+            return 0
+        status = 0
+        ok = np.zeros(self.B, dtype=np.bool_)
+        d = np.zeros(self.B)
+        for b in rows:
+            v = _action(b, self.act, self.cfgv, self.ctr)
+            if v < 0.0:
+                status = 1
+            else:
+                ok[b], d[b] = True, v
+        T = self.cfgv[_T]
+        xv0 = xr[:, iv].copy()
+        E0 = xr[:, ie].copy()
+        ones = np.ones(self.B)
+        u_on = np.column_stack([ones, self.dist[:, 0], self.dist[:, 1]])
+        u_off = np.column_stack([0.0 * ones, self.dist[:, 0], self.dist[:, 1]])
+        # heater on for d·T, then off for the rest of the period (PWM at the control period)
+        xr = self.tp.step(xr, u_on, np.where(ok, d * T, 0.0), self.spec)
+        xr = self.tp.step(xr, u_off, np.where(ok, (1.0 - d) * T, 0.0), self.spec)
+        self.xr = xr
+        E = xr[:, ie] - E0
+        for b in np.flatnonzero(ok):
+            _valve_post(b, 0, d[b], E[b], xv0[b], xr[b, iw], xr[b, ig], xr[b, iv],
+                        self.xmax, *args)  # fmt: skip
+        readings = self.rsens.read(ok, self._truth(), T, self._rngs)
+        self.obs[ok, :4] = readings[ok]
+        return status
+
+    def trip_reason(self, b: int) -> str:
+        T = self.xr[b, self._iw]
+        return f"wax temperature {T:.1f} °C above trip_C = {self.cfgv[_TRIP]} °C"
+
+
+def _valve_engine(B: int, cfg: ValveConfig) -> _ValveEngine:
+    # the rig's true plant or the identified model's kernels
+    return _ValveRigEngine(B, cfg) if cfg.plant == "rig" else _ValveEngine(B, cfg)
+
+
 class AXT211ValveEnv(ThermoEnv):
     """Valve positioning with the AXT211 actuator (``thermogym/AXT211Valve-v0``).
 
@@ -741,7 +849,7 @@ class AXT211ValveEnv(ThermoEnv):
 
     env_name = ENV
     config_cls = ValveConfig
-    engine_cls = _ValveEngine
+    engine_cls = staticmethod(_valve_engine)
 
 
 class AXT211ValveVectorEnv(ThermoVectorEnv):

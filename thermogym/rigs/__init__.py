@@ -2,7 +2,7 @@
 
 >>> from thermogym.rigs import get_rig, rig_names
 >>> rig_names()
-['axt211', 'spindle', 'strut']
+['axt211', 'room', 'spindle', 'strut']
 >>> sorted(get_rig("strut").protocols)
 ['steps']
 """
@@ -22,6 +22,7 @@ from thermogym.errors import ConfigError, UnknownNameError
 from thermogym.recording import Recording, write_recording
 from thermogym.rigs.axt211 import AXT211Rig
 from thermogym.rigs.base import EFFECT_NAMES, EffectSpec, Rig, RigRun, parse_effect
+from thermogym.rigs.room import RoomRig
 from thermogym.rigs.spindle import SpindleRig
 from thermogym.rigs.strut import StrutRig
 
@@ -37,7 +38,12 @@ __all__ = [
     "to_recording",
 ]
 
-_RIGS: dict[str, type[Rig]] = {"axt211": AXT211Rig, "spindle": SpindleRig, "strut": StrutRig}
+_RIGS: dict[str, type[Rig]] = {
+    "axt211": AXT211Rig,
+    "room": RoomRig,
+    "spindle": SpindleRig,
+    "strut": StrutRig,
+}
 
 
 def rig_names() -> list[str]:
@@ -45,20 +51,29 @@ def rig_names() -> list[str]:
     return list(_RIGS)
 
 
-def get_rig(name: str, effects: Sequence[str | EffectSpec] = ()) -> Rig:
-    """Build the rig called ``name``, optionally carrying extra physics.
+def get_rig(
+    name: str, effects: Sequence[str | EffectSpec] = (), *, off: Sequence[str] = (), **options: Any
+) -> Rig:
+    """Build the rig called ``name``, optionally carrying concealed effects.
 
     Parameters
     ----------
     name : str
-        ``axt211``, ``spindle`` or ``strut``.
+        One of :func:`rig_names`.
     effects : sequence of str or EffectSpec
         ``NAME[:k=v,...]`` effects from the vocabulary (see :data:`EFFECT_NAMES`).
+    off : sequence of str
+        Rows of the rig's table of extra physics to switch off (rigs with a
+        true plant of their own).
+    **options
+        Constructor options of the rig (the room rig's ``valve``).
     """
     try:
         cls = _RIGS[name]
     except KeyError:
         raise UnknownNameError(f"unknown rig {name!r}; rigs are {rig_names()}") from None
+    if off or options:
+        return cls(effects, off=off, **options)  # type: ignore[call-arg]
     return cls(effects)
 
 

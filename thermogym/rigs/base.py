@@ -1,43 +1,74 @@
-"""Virtual test rigs: the "real" plants that stand in for devices without public data.
+"""Virtual test rigs: true plants written apart from the models, protocols and sensors.
 
-A rig wraps a plant model with what a test bench adds: protocols (the
-experiments of the papers), sensors (noise, quantisation, sampling), spread
-between specimens and, on request, physics the identified model lacks
-(``effects``). A run returns :class:`RigRun` objects — arrays and metadata —
-which :func:`thermogym.rigs.to_recording` turns into recordings.
+A rig stands in for a device that has no public recordings. It has three parts:
 
-Recorded metadata never names an effect: a rig with a concealed effect writes
-data that carries no hint of it.
+* a **true plant** (:class:`TruePlant`): the rig's own physics, written in the
+  rig module and never taken from :mod:`thermogym.models` (a rig may share
+  signal names and units with a model, so its recordings carry the model's
+  column names, but never a model's equations, kernels or parameter tables).
+  It is richer than the identified model; each thing it has that the model
+  lacks is a row of the rig's table (:class:`ExtraPhysics`) with its physical
+  source, its size and an on/off switch. Its physical parameters
+  (:class:`PhysicalParameter`) carry the manufacturing spread from which
+  specimens are drawn (:class:`Specimens`). Batched over B specimens::
+
+      specimens = plant.draw_specimens(rng, n)       # or plant.nominal(n)
+      x = plant.initial_state(specimens, u0)          # (B, n_x)
+      x = plant.step(x, u, dt, specimens)            # fixed internal sub-steps
+      y = plant.outputs(x, u, specimens)             # (B, n_y), noise-free
+      h = plant.hidden(x, specimens)                 # truths no sensor records
+      run = plant.simulate(u, dt, specimens, x0=None, t0=0.0)
+
+* **sensors** (:mod:`thermogym.rigs.sensors`): white and coloured noise,
+  quantisation, lags, spikes and dropouts of the papers' hardware;
+* **protocols** (:class:`Protocol`): the papers' experiments, returning
+  :class:`RigRun` objects that :func:`thermogym.rigs.to_recording` turns into
+  recordings.
+
+Concealed effects (``effects``, names of :data:`EFFECT_NAMES`) are written in
+the rig's own physics (a plant parameter or switch, an input the sensors do
+not see, a sensor fault); they are never borrowed from the diagnosis'
+augmentations, and recorded metadata never names them.
 """
 
 from __future__ import annotations
 
-import itertools
-import math
+import inspect
 import re
-from collections.abc import Callable, Mapping, Sequence
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from thermogym.errors import ConfigError, UnknownNameError
-from thermogym.models.base import Model
+from thermogym._checks import nonnegative, positive
+from thermogym.errors import ConfigError, ParameterError, ShapeError, UnknownNameError
+from thermogym.rigs.sensors import Sensor
 from thermogym.vocabulary import EFFECT_NAMES
 
 __all__ = [
     "EFFECT_NAMES",
     "EffectSpec",
+    "ExtraPhysics",
+    "PhysicalParameter",
+    "PlantRun",
     "Protocol",
     "Rig",
     "RigRun",
-    "SensorSpec",
+    "Specimens",
+    "TruePlant",
+    "extras_table",
+    "first_order_lag",
     "parse_effect",
-    "with_hidden_node",
 ]
 
+#: Effects that act on a sensor rather than on the plant (applied by :meth:`Rig.sensor`).
+SENSOR_EFFECTS = ("sensor_lag", "sensor_offset", "sensor_drift")
 
+
+# ------------------------------------------------------------------------ effects
 @dataclass(frozen=True)
 class EffectSpec:
     """An effect to include in a rig: vocabulary name and keyword settings.
@@ -88,29 +119,431 @@ def parse_effect(spec: str | EffectSpec) -> EffectSpec:
     return EffectSpec(name, params)
 
 
+# ---------------------------------------------------------------- the rig's tables
 @dataclass(frozen=True)
-class SensorSpec:
-    """How a rig measures one signal.
+class ExtraPhysics:
+    """One row of a rig's table: physics the rig has and the identified model lacks.
 
     Parameters
     ----------
-    noise : float
-        Standard deviation of white measurement noise, in the signal's unit.
-    resolution : float
-        Quantisation step of the recorded value (0: none).
+    name : str
+        Switch name (``TruePlant(off=[name])`` switches it off).
+    what : str
+        The physics, in a sentence.
+    source : str
+        Its physical source: a paper section, a handbook correlation, a datasheet figure.
+    size : str
+        How large it is, with numbers.
+    off : str
+        What the plant does when it is switched off.
     """
 
-    noise: float = 0.0
-    resolution: float = 0.0
-
-    def measure(self, x: NDArray[np.float64], rng: np.random.Generator) -> NDArray[np.float64]:
-        """Return ``x`` as this sensor would record it."""
-        y = x + self.noise * rng.standard_normal(x.shape) if self.noise > 0 else x.copy()
-        if self.resolution > 0:
-            y = np.round(y / self.resolution) * self.resolution
-        return y
+    name: str
+    what: str
+    source: str
+    size: str
+    off: str
 
 
+@dataclass(frozen=True)
+class PhysicalParameter:
+    """A physical parameter of a true plant, with its manufacturing spread.
+
+    Parameters
+    ----------
+    name : str
+    nominal : float
+        Value of the nominal specimen.
+    unit : str
+    description : str
+    source : str
+        Provenance of the nominal value.
+    spread : float
+        Size of the spread: relative standard deviation (``kind="relative"``),
+        absolute standard deviation (``"absolute"``) or half-width of a uniform
+        draw (``"uniform"``); 0: the same on every specimen.
+    kind : {"relative", "absolute", "uniform"}
+    spread_source : str
+        Provenance of the spread.
+    lower, upper : float
+        Physical limits; draws are clipped to them.
+    """
+
+    name: str
+    nominal: float
+    unit: str
+    description: str
+    source: str
+    spread: float = 0.0
+    kind: str = "relative"
+    spread_source: str = ""
+    lower: float = -np.inf
+    upper: float = np.inf
+
+    def draw(self, rng: np.random.Generator, n: int) -> NDArray[np.float64]:
+        """``n`` values from the spread (one standard normal or uniform each, always drawn)."""
+        if self.kind == "uniform":
+            z = rng.uniform(-1.0, 1.0, n)
+            v = self.nominal + self.spread * z
+        else:
+            z = rng.standard_normal(n)
+            if self.kind == "relative":
+                v = self.nominal * (1.0 + self.spread * z)
+            elif self.kind == "absolute":
+                v = self.nominal + self.spread * z
+            else:
+                raise ConfigError(
+                    f"parameter {self.name!r}: spread kind {self.kind!r}; expected 'relative', "
+                    "'absolute' or 'uniform'"
+                )
+        return np.clip(v, self.lower, self.upper)
+
+
+class Specimens:
+    """Physical parameters of B specimens of a true plant: name -> array of shape (B,).
+
+    Parameters
+    ----------
+    values : mapping of str to array_like
+        One value (broadcast) or B values per parameter.
+
+    Examples
+    --------
+    >>> s = Specimens({"C": [1.0, 2.0], "G": 0.5})
+    >>> s.n, s["G"].tolist()
+    (2, [0.5, 0.5])
+    >>> s.take([1]).to_dicts()
+    [{'C': 2.0, 'G': 0.5}]
+    """
+
+    def __init__(self, values: Mapping[str, ArrayLike]) -> None:
+        arrays = {k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in values.items()}
+        sizes = {a.size for a in arrays.values()}
+        n = max(sizes) if sizes else 1
+        bad = [k for k, a in arrays.items() if a.ndim != 1 or a.size not in (1, n)]
+        if bad:
+            raise ShapeError(
+                f"specimen values {bad} have shapes {[arrays[k].shape for k in bad]}; expected "
+                f"(1,) or ({n},)"
+            )
+        self._v = {k: np.broadcast_to(a, (n,)).copy() for k, a in arrays.items()}
+        self.n = n
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Parameter names."""
+        return tuple(self._v)
+
+    def __getitem__(self, name: str) -> NDArray[np.float64]:
+        try:
+            return self._v[name]
+        except KeyError:
+            raise UnknownNameError(
+                f"no specimen parameter {name!r}; parameters are {list(self._v)}"
+            ) from None
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._v
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __repr__(self) -> str:
+        return f"Specimens(n={self.n}, names={list(self._v)})"
+
+    def take(self, idx: Sequence[int] | NDArray[np.int64] | int) -> Specimens:
+        """The specimens at ``idx`` (an index keeps a batch of one)."""
+        i = np.atleast_1d(np.asarray(idx, dtype=np.int64))
+        return Specimens({k: v[i] for k, v in self._v.items()})
+
+    def replace(self, values: Mapping[str, ArrayLike]) -> Specimens:
+        """A copy with some parameters replaced (unknown names raise)."""
+        unknown = [k for k in values if k not in self._v]
+        if unknown:
+            raise UnknownNameError(
+                f"no specimen parameter(s) {unknown}; parameters are {list(self._v)}"
+            )
+        return Specimens({**self._v, **{k: np.asarray(v, dtype=float) for k, v in values.items()}})
+
+    def array(self, names: Sequence[str]) -> NDArray[np.float64]:
+        """Values of ``names`` as a (B, len(names)) array (kernel layout)."""
+        return np.ascontiguousarray(np.column_stack([self[k] for k in names]))
+
+    def to_dicts(self) -> list[dict[str, float]]:
+        """One ``{name: value}`` per specimen."""
+        return [{k: float(v[i]) for k, v in self._v.items()} for i in range(self.n)]
+
+    @classmethod
+    def stack(cls, items: Sequence[Specimens]) -> Specimens:
+        """Concatenate batches of specimens of the same plant."""
+        names = items[0].names
+        return cls({k: np.concatenate([s[k] for s in items]) for k in names})
+
+
+def extras_table(extras: Sequence[ExtraPhysics], width: int = 92) -> str:
+    """A rig's table as a numpydoc definition list (for module docstrings and reports).
+
+    Examples
+    --------
+    >>> print(extras_table([ExtraPhysics("lag", "a lag", "datasheet", "3 s", "none")]))
+    lag
+        a lag. Source: datasheet. Size: 3 s. Off: none.
+    """
+    import textwrap
+
+    out = []
+    for e in extras:
+        text = f"{e.what}. Source: {e.source}. Size: {e.size}. Off: {e.off}."
+        out.append(e.name)
+        out.extend(textwrap.wrap(text, width, initial_indent="    ", subsequent_indent="    "))
+    return "\n".join(out)
+
+
+# --------------------------------------------------------------------- true plants
+@dataclass
+class PlantRun:
+    """A simulation of a true plant on a uniform grid.
+
+    Attributes
+    ----------
+    time : ndarray, shape (T,)
+    inputs : ndarray, shape (B, T, n_u)
+        The exogenous signals the plant saw (after input-level effects).
+    outputs : ndarray, shape (B, T, n_y)
+        Noise-free outputs at the sensors' locations.
+    states : ndarray, shape (B, T, n_x)
+    hidden : dict of str to ndarray (B, T)
+        Truths no sensor records.
+    output_names : tuple of str
+    """
+
+    time: NDArray[np.float64]
+    inputs: NDArray[np.float64]
+    outputs: NDArray[np.float64]
+    states: NDArray[np.float64]
+    hidden: dict[str, NDArray[np.float64]]
+    output_names: tuple[str, ...]
+
+    def output(self, name: str) -> NDArray[np.float64]:
+        """One output, shape (B, T)."""
+        try:
+            return self.outputs[..., self.output_names.index(name)]
+        except ValueError:
+            raise UnknownNameError(
+                f"no output {name!r}; outputs are {list(self.output_names)}"
+            ) from None
+
+
+class TruePlant(ABC):
+    """The physics of a rig, batched over specimens (subclass per rig).
+
+    Subclasses set the class attributes and implement :meth:`initial_state`,
+    :meth:`step`, :meth:`outputs` and :meth:`hidden`; :meth:`simulate` steps
+    sample by sample unless a subclass provides a faster loop.
+
+    Parameters
+    ----------
+    off : iterable of str
+        Names of :attr:`extras` to switch off.
+    effects : sequence of str or EffectSpec
+        Concealed effects of the plant (those in :attr:`supported_effects`);
+        sensor effects are the rig's business, not the plant's.
+    """
+
+    name: ClassVar[str] = "plant"
+    #: Exogenous inputs, in column order of ``u`` (recording column names).
+    input_names: ClassVar[tuple[str, ...]] = ()
+    #: Noise-free outputs at the sensors' locations (recording column names).
+    output_names: ClassVar[tuple[str, ...]] = ()
+    #: Truths no sensor records (for virtual-sensor checks and KPIs).
+    hidden_names: ClassVar[tuple[str, ...]] = ()
+    state_names: ClassVar[tuple[str, ...]] = ()
+    units: ClassVar[dict[str, str]] = {}
+    #: Longest internal sub-step [s] (fixed steps: a sample of dt takes ceil(dt / max_step)).
+    max_step: ClassVar[float] = 1.0
+    #: Physical parameters with their spread.
+    parameters: ClassVar[tuple[PhysicalParameter, ...]] = ()
+    #: The rig's table: what it has that the identified model lacks.
+    extras: ClassVar[tuple[ExtraPhysics, ...]] = ()
+    #: Concealed effects the plant's physics can carry.
+    supported_effects: ClassVar[tuple[str, ...]] = ()
+    #: Default settings of the effects.
+    effect_defaults: ClassVar[dict[str, dict[str, Any]]] = {}
+
+    def __init__(
+        self, *, off: Iterable[str] = (), effects: Sequence[str | EffectSpec] = ()
+    ) -> None:
+        off = tuple(off)
+        names = [e.name for e in self.extras]
+        unknown = [n for n in off if n not in names]
+        if unknown:
+            raise UnknownNameError(
+                f"{self.name}: no extra physics {unknown} to switch off; the table has {names}"
+            )
+        self.switches: dict[str, bool] = {n: n not in off for n in names}
+        self.effects = tuple(parse_effect(e) for e in effects)
+        bad = [e.name for e in self.effects if e.name not in self.supported_effects]
+        if bad:
+            raise UnknownNameError(
+                f"true plant {self.name!r} cannot carry effect(s) {bad}; it supports "
+                f"{list(self.supported_effects)}"
+            )
+
+    # ---- switches and effects
+    def is_on(self, name: str) -> bool:
+        """Whether extra physics ``name`` is switched on."""
+        try:
+            return self.switches[name]
+        except KeyError:
+            raise UnknownNameError(
+                f"{self.name}: no extra physics {name!r}; the table has {list(self.switches)}"
+            ) from None
+
+    def effect(self, name: str) -> dict[str, Any] | None:
+        """Settings of concealed effect ``name`` over its defaults, or None when absent."""
+        for e in self.effects:
+            if e.name == name:
+                return {**self.effect_defaults.get(name, {}), **e.params}
+        return None
+
+    # ---- specimens
+    @classmethod
+    def parameter_names(cls) -> tuple[str, ...]:
+        """Names of the physical parameters, in kernel order."""
+        return tuple(p.name for p in cls.parameters)
+
+    def nominal(self, n: int = 1) -> Specimens:
+        """``n`` copies of the nominal specimen."""
+        return Specimens({p.name: np.full(n, p.nominal) for p in self.parameters})
+
+    def draw_specimens(self, rng: np.random.Generator, n: int) -> Specimens:
+        """``n`` specimens drawn from the spread of :attr:`parameters`.
+
+        Every parameter draws ``n`` numbers in table order, whatever its spread,
+        so that a change of one spread leaves the others' draws unchanged.
+        """
+        return Specimens({p.name: p.draw(rng, int(n)) for p in self.parameters})
+
+    # ---- dynamics
+    @abstractmethod
+    def initial_state(self, specimens: Specimens, u0: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Rest state for the exogenous values ``u0`` (B, n_u) or (n_u,); shape (B, n_x)."""
+
+    @abstractmethod
+    def step(
+        self,
+        x: NDArray[np.float64],
+        u: NDArray[np.float64],
+        dt: float | NDArray[np.float64],
+        specimens: Specimens,
+    ) -> NDArray[np.float64]:
+        """The state after ``dt`` seconds (a scalar or one per specimen) with ``u`` held."""
+
+    @abstractmethod
+    def outputs(
+        self, x: NDArray[np.float64], u: NDArray[np.float64], specimens: Specimens
+    ) -> NDArray[np.float64]:
+        """Noise-free outputs (B, n_y) in state ``x`` with inputs ``u``."""
+
+    @abstractmethod
+    def hidden(
+        self, x: NDArray[np.float64], specimens: Specimens
+    ) -> dict[str, NDArray[np.float64]]:
+        """Truths no sensor records, each of shape (B,)."""
+
+    def plant_inputs(self, u: NDArray[np.float64], dt: float, t0: float) -> NDArray[np.float64]:
+        """The inputs the plant sees, from those given (input-level effects; default: the same).
+
+        Parameters
+        ----------
+        u : ndarray, shape (B, T, n_u)
+        dt, t0 : float
+            Sample period and time of the first sample [s].
+        """
+        return u
+
+    def simulate(
+        self,
+        u: ArrayLike,
+        dt: float,
+        specimens: Specimens,
+        x0: NDArray[np.float64] | None = None,
+        t0: float = 0.0,
+    ) -> PlantRun:
+        """Simulate B specimens on a uniform grid.
+
+        Parameters
+        ----------
+        u : array_like, shape (T, n_u) or (B, T, n_u)
+            Exogenous signals (shared by every specimen, or one set each), held
+            over each sample period.
+        dt : float
+            Sample period [s].
+        specimens : Specimens
+        x0 : ndarray, shape (B, n_x), optional
+            Initial state (default :meth:`initial_state` for the first inputs).
+        t0 : float
+            Time of the first sample [s].
+
+        Returns
+        -------
+        PlantRun
+        """
+        ua = self._batch_inputs(u, specimens.n)
+        dt = positive("dt", dt, unit="s")
+        ua = self.plant_inputs(ua, dt, t0)
+        B = ua.shape[0]
+        x = self.initial_state(specimens, ua[:, 0]) if x0 is None else np.array(x0, dtype=float)
+        if x.shape != (B, len(self.state_names)):
+            raise ShapeError(f"x0 has shape {x.shape}, expected ({B}, {len(self.state_names)})")
+        return self._simulate(ua, dt, specimens, x, t0)
+
+    def _simulate(
+        self,
+        u: NDArray[np.float64],
+        dt: float,
+        specimens: Specimens,
+        x: NDArray[np.float64],
+        t0: float,
+    ) -> PlantRun:
+        # generic loop: one batched step per sample
+        B, T, _ = u.shape
+        ys = np.empty((B, T, len(self.output_names)))
+        xs = np.empty((B, T, len(self.state_names)))
+        hid = {k: np.empty((B, T)) for k in self.hidden_names}
+        for k in range(T):
+            xs[:, k] = x
+            ys[:, k] = self.outputs(x, u[:, k], specimens)
+            for name, v in self.hidden(x, specimens).items():
+                hid[name][:, k] = v
+            if k + 1 < T:
+                x = self.step(x, u[:, k], dt, specimens)
+        return PlantRun(t0 + dt * np.arange(T), u, ys, xs, hid, self.output_names)
+
+    def _batch_inputs(self, u: ArrayLike, n: int) -> NDArray[np.float64]:
+        ua = np.asarray(u, dtype=float)
+        m = len(self.input_names)
+        if ua.ndim == 2:
+            ua = np.broadcast_to(ua[None], (n, *ua.shape))
+        if ua.ndim != 3 or ua.shape[0] != n or ua.shape[2] != m:
+            raise ShapeError(
+                f"u has shape {np.shape(u)}; expected (T, {m}) or ({n}, T, {m}) with columns "
+                f"{list(self.input_names)}"
+            )
+        if not np.isfinite(ua).all():
+            raise ShapeError("u has non-finite values")
+        return np.ascontiguousarray(ua)
+
+    @staticmethod
+    def substeps(dt: float | NDArray[np.float64], max_step: float, n: int) -> NDArray[np.float64]:
+        """``dt`` as one non-negative value per specimen (checked)."""
+        d = np.broadcast_to(np.asarray(dt, dtype=float), (n,))
+        if not np.all(np.isfinite(d)) or np.any(d < 0):
+            raise ShapeError(f"dt = {d.tolist()!r} s, expected finite values >= 0")
+        return np.ascontiguousarray(d)
+
+
+# ------------------------------------------------------------------- protocols
 @dataclass
 class RigRun:
     """One recorded experiment of a rig, before it becomes a Recording.
@@ -156,25 +589,31 @@ class Protocol:
 
 
 class Rig:
-    """Base class of the virtual test rigs.
+    """Base class of the virtual test rigs (protocols, sensors, effects, specimen).
 
     Parameters
     ----------
     effects : sequence of str or EffectSpec
-        Physics to add to the plant beyond the nominal model.
+        Concealed effects beyond the nominal rig (see :attr:`supported_effects`).
+    off : iterable of str
+        Extra physics of the true plant to switch off (names of its table).
     """
 
     name: str = "rig"
-    #: Model the rig's plant is built on.
-    model_name: str = ""
+    #: The true plant's class (None for a rig that does not have one of its own).
+    plant_cls: ClassVar[type[TruePlant] | None] = None
     #: Protocols by name.
     protocols: ClassVar[dict[str, Protocol]] = {}
     #: Sensors by recorded signal.
-    sensors: ClassVar[dict[str, SensorSpec]] = {}
+    sensors: ClassVar[dict[str, Sensor]] = {}
     #: Effects this rig can carry.
     supported_effects: tuple[str, ...] = ()
+    #: Default magnitudes of the effects.
+    effect_defaults: ClassVar[dict[str, dict[str, Any]]] = {}
 
-    def __init__(self, effects: Sequence[str | EffectSpec] = ()) -> None:
+    def __init__(
+        self, effects: Sequence[str | EffectSpec] = (), *, off: Iterable[str] = ()
+    ) -> None:
         self.effects = tuple(parse_effect(e) for e in effects)
         bad = [e.name for e in self.effects if e.name not in self.supported_effects]
         if bad:
@@ -182,6 +621,10 @@ class Rig:
                 f"rig {self.name!r} cannot carry effect(s) {bad}; it supports "
                 f"{list(self.supported_effects)}"
             )
+        self.off = tuple(off)
+        self._specimen: Specimens | None = None
+        if self.plant_cls is not None:
+            self.plant()  # checks the switch names now
 
     def effect(self, name: str) -> EffectSpec | None:
         """The requested effect called ``name``, if any."""
@@ -190,6 +633,92 @@ class Rig:
                 return e
         return None
 
+    def _settings(self, name: str) -> dict[str, Any] | None:
+        e = self.effect(name)
+        if e is None:
+            return None
+        return {**self.effect_defaults.get(name, {}), **e.params}
+
+    # ---- the true plant and its specimen
+    def plant(self) -> TruePlant:
+        """The true plant with this rig's plant effects and switches."""
+        if self.plant_cls is None:
+            raise ConfigError(f"rig {self.name!r} has no true plant of its own")
+        plant_effects = [
+            EffectSpec(e.name, {**self.effect_defaults.get(e.name, {}), **e.params})
+            for e in self.effects
+            if e.name not in SENSOR_EFFECTS
+        ]
+        return self.plant_cls(off=self.off, effects=plant_effects)
+
+    @property
+    def specimen(self) -> Specimens:
+        """The specimen this rig holds (nominal unless :meth:`with_specimen` set one)."""
+        if self._specimen is None:
+            return self.plant().nominal(1)
+        return self._specimen
+
+    def with_specimen(self, values: Mapping[str, float] | Specimens) -> Rig:
+        """A copy of this rig whose plant is one particular specimen.
+
+        ``values``: a :class:`Specimens` of one specimen, or overrides of the
+        nominal parameters by name.
+        """
+        other = type(self)(self.effects, off=self.off)
+        if isinstance(values, Specimens):
+            if values.n != 1:
+                raise ShapeError(f"with_specimen takes one specimen; got {values.n}")
+            other._specimen = values
+        else:
+            other._specimen = self.specimen.replace(dict(values))
+        return other
+
+    # ---- sensors
+    def sensor(self, signal: str) -> Sensor:
+        """The sensor of ``signal`` with this rig's sensor effects applied."""
+        s = self.sensors.get(signal, Sensor())
+        for name in SENSOR_EFFECTS:
+            st = self._settings(name)
+            if st is None or st.get("signal") != signal:
+                continue
+            key = {"sensor_lag": "tau", "sensor_offset": "offset", "sensor_drift": "rate"}[name]
+            try:
+                v = float(st[key])
+            except (KeyError, TypeError, ValueError):
+                raise ConfigError(
+                    f"rig effect {name}: {key} is {st.get(key)!r}; expected a number"
+                ) from None
+            if name == "sensor_lag":
+                s = s.replace(lag=nonnegative("sensor_lag tau", v, unit="s"))
+            elif name == "sensor_offset":
+                s = s.replace(offset=s.offset + v)
+            else:
+                s = s.replace(drift=s.drift + v)
+        return s
+
+    def check_sensor_effects(self, signals: Iterable[str]) -> None:
+        """Raise when a sensor effect names a signal the rig does not record."""
+        names = list(signals)
+        for name in SENSOR_EFFECTS:
+            st = self._settings(name)
+            if st is not None and st.get("signal") not in names:
+                raise ConfigError(
+                    f"effect {name!r} names signal {st.get('signal')!r}; the rig records {names}"
+                )
+
+    def measure(
+        self,
+        values: Mapping[str, NDArray[np.float64]],
+        rng: np.random.Generator,
+        time: NDArray[np.float64] | None = None,
+    ) -> dict[str, NDArray[np.float64]]:
+        """Record noise-free ``values`` through each signal's sensor."""
+        return {
+            name: self.sensor(name).measure(np.asarray(x, dtype=float), rng, time)
+            for name, x in values.items()
+        }
+
+    # ---- protocols
     def run(self, protocol: str, *, seed: int = 0, **options: Any) -> list[RigRun]:
         """Run a protocol and return its recorded experiments.
 
@@ -209,8 +738,6 @@ class Rig:
                 f"rig {self.name!r} has no protocol {protocol!r}; protocols are "
                 f"{list(self.protocols)}"
             ) from None
-        import inspect
-
         accepted = [
             n
             for n, prm in inspect.signature(proto.run).parameters.items()
@@ -230,239 +757,6 @@ class Rig:
             r.meta.setdefault("seed", seed)
         return runs
 
-    # ------------------------------------------------------------ shared helpers
-    def plant(self) -> tuple[Model, dict[str, float]]:
-        """The true plant: a model with the physical effects and its parameter overrides.
-
-        Model-internal effects (those in the model's ``physical_effects``) are
-        switched on in the model; their settings are model parameter names, and
-        settings left out take the rig's :attr:`effect_defaults`. Other effect
-        settings that name a model parameter (e.g. ``backlash:c_backlash=0.3``)
-        override it.
-        """
-        from thermogym.models.registry import get_model
-
-        probe = get_model(self.model_name)
-        internal = [
-            e.name for e in self.effects if e.name in getattr(probe, "physical_effects", {})
-        ]
-        model = get_model(self.model_name, effects=internal) if internal else probe
-        hidden = self._settings("missing_dynamics")
-        if hidden is not None:
-            model = with_hidden_node(
-                model,
-                str(hidden.get("node", "")),
-                capacity=float(hidden.get("C", 20000.0)),
-                conductance=float(hidden.get("G", 2.0)),
-                g_air=float(hidden.get("g_air", 0.0)),
-            )
-        overrides: dict[str, float] = dict(self.specimen)
-        for e in self.effects:
-            settings = {**self.effect_defaults.get(e.name, {}), **e.params}
-            for k, v in settings.items():
-                if k in model.param_names:
-                    overrides[k] = float(v)
-        return model, overrides
-
-    #: Default magnitudes of the effects, as model parameter names or effect settings.
-    effect_defaults: ClassVar[dict[str, dict[str, Any]]] = {}
-
-    @property
-    def specimen(self) -> dict[str, float]:
-        """Parameter overrides of this particular specimen (manufacturing spread)."""
-        return getattr(self, "_specimen", {})
-
-    def with_specimen(self, overrides: Mapping[str, float]) -> Rig:
-        """A copy of this rig whose plant has the given parameter overrides."""
-        other = type(self)(self.effects)
-        other._specimen = dict(overrides)  # type: ignore[attr-defined]
-        return other
-
-    def _settings(self, name: str) -> dict[str, Any] | None:
-        e = self.effect(name)
-        if e is None:
-            return None
-        return {**self.effect_defaults.get(name, {}), **e.params}
-
-    def simulate_true(
-        self,
-        u: NDArray[np.float64],
-        dt: float,
-        *,
-        t0: float = 0.0,
-        x0: NDArray[np.float64] | None = None,
-        rng: np.random.Generator | None = None,
-    ) -> tuple[dict[str, NDArray[np.float64]], NDArray[np.float64]]:
-        """Simulate the true plant on a uniform grid, effects included, noise excluded.
-
-        Parameters
-        ----------
-        u : ndarray, shape (T, n_u)
-            Exogenous signals *as recorded* (the plant may see them delayed or
-            disturbed when an effect says so).
-        dt : float
-            Sample period [s].
-        t0 : float
-            Time of the first sample [s] (time-varying effects).
-        x0 : ndarray, optional
-            Initial state (rest state of the model when omitted).
-        rng : Generator, optional
-            For effects with random phase.
-
-        Returns
-        -------
-        outputs : dict
-            Every model output as the sensors see it (before noise).
-        states : ndarray, shape (T, n_x)
-        """
-        model, overrides = self.plant()
-        names = list(model.exogenous_names)
-        ua = np.array(u, dtype=float, copy=True)
-        s = self._settings("transport_delay")
-        if s is not None:
-            col = names.index(s.get("signal", names[0]))
-            shift = float(s.get("delay", 300.0)) / dt
-            src = np.arange(ua.shape[0]) - shift
-            ua[:, col] = np.interp(src, np.arange(ua.shape[0]), ua[:, col], left=ua[0, col])
-        s = self._settings("unmeasured_disturbance")
-        if s is not None:
-            col = names.index(s.get("signal", model.disturbances[-1].name))
-            t = t0 + dt * np.arange(ua.shape[0])
-            phase = float(s.get("phase", 0.0))
-            period = float(s.get("period", 4 * 3600.0))
-            ua[:, col] += float(s.get("amplitude", 2.0)) * np.sin(2 * np.pi * t / period + phase)
-        theta = model.theta(overrides)
-        s = self._settings("time_varying_parameter")
-        tv_name = s.get("name") if s is not None else None
-        if s is not None and tv_name in model.param_names:
-            # piecewise-constant parameter drift, state carried across chunks
-            j = model.param_index(str(tv_name))
-            rate = float(s.get("rate", 0.1))  # relative change per hour
-            T = ua.shape[0]
-            edges = np.unique(np.linspace(0, T, 49).astype(int))
-            ys, xs = [], []
-            x = x0
-            for a, b in itertools.pairwise(edges):
-                th = theta.copy()
-                th[:, j] *= 1.0 + rate * (t0 + dt * 0.5 * (a + b)) / 3600.0
-                sim = model.simulate(ua[a : min(b + 1, T)], dt, th, x, return_states=True)
-                ys.append(sim.outputs[0, : b - a])
-                xs.append(sim.states[0, : b - a])  # type: ignore[index]
-                if b < T:
-                    x = sim.states[0, b - a]  # type: ignore[index]
-            y = np.concatenate(ys)
-            states = np.concatenate(xs)
-        else:
-            sim = model.simulate(ua, dt, theta, x0, t0=t0, return_states=True)
-            y, states = sim.outputs[0], sim.states[0]  # type: ignore[index]
-        out = {n: y[:, i].copy() for i, n in enumerate(model.output_names)}
-        for name in ("sensor_lag", "sensor_offset", "sensor_drift"):
-            s = self._settings(name)
-            if s is None:
-                continue
-            sig = str(s.get("signal", model.output_names[0]))
-            if sig not in out:
-                raise ConfigError(f"effect {name!r} names signal {sig!r}; outputs are {list(out)}")
-            if name == "sensor_lag":
-                out[sig] = first_order_lag(out[sig], float(s.get("tau", 60.0)), dt)
-            elif name == "sensor_offset":
-                out[sig] = out[sig] + float(s.get("offset", 1.0))
-            else:
-                t = dt * np.arange(len(out[sig]))
-                out[sig] = out[sig] + float(s.get("rate", 0.5)) * t / 3600.0
-        return out, states
-
-    def measure(
-        self, values: Mapping[str, NDArray[np.float64]], rng: np.random.Generator
-    ) -> dict[str, NDArray[np.float64]]:
-        """Apply each signal's sensor (noise, quantisation) to noise-free values."""
-        return {
-            name: self.sensors.get(name, SensorSpec()).measure(np.asarray(x, dtype=float), rng)
-            for name, x in values.items()
-        }
-
-
-def with_hidden_node(
-    model: Model,
-    node: str,
-    *,
-    capacity: float,
-    conductance: float,
-    g_air: float = 0.0,
-) -> Model:
-    """A thermal-network plant with one extra capacitive node the model does not know.
-
-    The ``missing_dynamics`` effect of the network rigs: a heat capacity (a
-    machine-frame casting, a mounting bracket, a headstock) bolted to ``node``
-    through a contact conductance, optionally losing heat to the air. It adds
-    one slow state to the plant; every node balance stays eq (13) of
-    ``000_24627a5308ee07db.txt``::
-
-        C_h dT_h/dt = G_h (T_node − T_h) + g_h (T_air − T_h)
-        C_node dT_node/dt = ... + G_h (T_h − T_node)
-
-    Parameters
-    ----------
-    model : ThermalNetworkModel
-        The plant model (possibly with physical effects switched on).
-    node : str
-        Node the hidden mass is attached to.
-    capacity : float
-        Heat capacity of the hidden mass [J/K], > 0.
-    conductance : float
-        Contact conductance to ``node`` [W/K], > 0.
-    g_air : float
-        Conductance of the hidden mass to the air [W/K], >= 0.
-
-    Returns
-    -------
-    ThermalNetworkModel
-        Same signals, parameters and outputs; one more state, ``hidden_mass``.
-
-    Raises
-    ------
-    ConfigError
-        The model is not a thermal network, the node is unknown or a value is
-        not physical.
-    """
-    from thermogym.models.thermal_network import NetworkArrays, ThermalNetworkModel
-
-    if not isinstance(model, ThermalNetworkModel):
-        raise ConfigError(
-            f"effect 'missing_dynamics' adds a hidden thermal node; model {model.name!r} is "
-            "not a thermal network"
-        )
-    cls = type(model)
-    if node not in cls.nodes:
-        raise ConfigError(
-            f"effect 'missing_dynamics' names node {node!r}; the {model.name!r} nodes are "
-            f"{list(cls.nodes)}"
-        )
-    for what, v, lo in (("C", capacity, 0.0), ("G", conductance, 0.0)):
-        if not (math.isfinite(v) and v > lo):
-            raise ConfigError(f"effect 'missing_dynamics': {what} = {v!r}, expected > 0")
-    if not (math.isfinite(g_air) and g_air >= 0):
-        raise ConfigError(f"effect 'missing_dynamics': g_air = {g_air!r}, expected >= 0")
-    j = cls.nodes.index(node)
-
-    class _Hidden(cls):  # type: ignore[misc, valid-type]
-        nodes = (*cls.nodes, "hidden_mass")
-
-        def network(self, theta_full: NDArray[np.float64]) -> NetworkArrays:
-            net = super().network(theta_full)
-            B, n = net.C.shape
-            C = np.concatenate([net.C, np.full((B, 1), capacity)], axis=1)
-            G = np.zeros((B, n + 1, n + 1))
-            G[:, :n, :n] = net.G
-            G[:, j, n] = G[:, n, j] = conductance
-            g = np.concatenate([net.g_amb, np.full((B, 1), g_air)], axis=1)
-            q = np.concatenate([net.q, np.zeros((B, 1, net.q.shape[2]))], axis=1)
-            H = np.concatenate([net.H, np.zeros((net.H.shape[0], 1))], axis=1)
-            return NetworkArrays(C, G, g, q, H, net.h0)
-
-    _Hidden.__name__ = _Hidden.__qualname__ = cls.__name__
-    return _Hidden(effects=model.effects)
-
 
 def first_order_lag(x: NDArray[np.float64], tau: float, dt: float) -> NDArray[np.float64]:
     """Exact discrete first-order lag of a sampled signal (held between samples).
@@ -477,8 +771,15 @@ def first_order_lag(x: NDArray[np.float64], tau: float, dt: float) -> NDArray[np
     """
     from scipy.signal import lfilter
 
-    a = math.exp(-dt / tau)
+    a = float(np.exp(-dt / tau))
     # y[k+1] = a y[k] + (1 − a) x[k], y[0] = x[0] (the sensor starts in equilibrium); in
     # scipy's transposed direct form the initial condition zi is y[0] itself
     y, _ = lfilter([0.0, 1.0 - a], [1.0, -a], x, zi=[x[0]])
     return y
+
+
+def _check_parameters(params: Sequence[PhysicalParameter]) -> None:
+    # used by the rig modules' tests: nominal values inside their limits, known spread kinds
+    for p in params:
+        if not (p.lower <= p.nominal <= p.upper):
+            raise ParameterError(f"{p.name} = {p.nominal!r} outside [{p.lower}, {p.upper}]")
