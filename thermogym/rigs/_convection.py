@@ -41,6 +41,7 @@ __all__ = [
     "h_mixed",
     "h_moving_surface",
     "h_radiation",
+    "h_rotating_disk",
     "h_rotating_shaft",
     "k_ratio_free_annulus",
     "k_ratio_rotating_annulus",
@@ -85,6 +86,19 @@ def h_rotating_shaft(n_rpm, D):  # pragma: no cover - numba
     w = abs(n_rpm) * 2.0 * math.pi / 60.0
     re = w * D * D / AIR_NU
     return 0.133 * re ** (2.0 / 3.0) * AIR_PR ** (1.0 / 3.0) * AIR_K / D
+
+
+@nb.njit(cache=True, inline="always")
+def h_rotating_disk(n_rpm, R):  # pragma: no cover - numba
+    """Face of a disk of radius ``R`` rotating in still air, mean [W/(m² K)].
+
+    Cobb & Saunders (1956, *Proc. R. Soc. A* 236:343), laminar:
+    ``Nu_R = h R / k = 0.36 Re^(1/2)``, ``Re = ω R² / ν`` (below 2.4·10⁵, where
+    the flow turns turbulent at the rim; beyond, the laminar mean is kept: a
+    turbulent rim raises it by some tens of per cent).
+    """
+    w = abs(n_rpm) * 2.0 * math.pi / 60.0
+    return 0.36 * math.sqrt(w * R * R / AIR_NU) * AIR_K / R
 
 
 @nb.njit(cache=True, inline="always")
