@@ -21,6 +21,7 @@ ENVIRONMENTS: dict[str, tuple[str, str, str]] = {
     "thermogym/SpindleThermal-v0": ("spindle", "SpindleThermalEnv", "SpindleThermalVectorEnv"),
     "thermogym/StrutThermal-v0": ("strut", "StrutThermalEnv", "StrutThermalVectorEnv"),
     "thermogym/TCLab-v0": ("tclab", "TCLabEnv", "TCLabVectorEnv"),
+    "thermogym/IdentifiedPlant-v0": ("identified", "make_env", "make_vector_env"),
 }
 
 

@@ -13,6 +13,8 @@ ID                              plant
 ``thermogym/StrutThermal-v0``   feed rate and thermal-elongation compensation (paper 000)
 ``thermogym/TCLab-v0``          the two-heater Temperature Control Lab, identified from
                                 real recordings
+``thermogym/IdentifiedPlant-v0`` any identified linear model of a user's own plant
+                                (``params=FIT`` of ss, foptd, sopdt, arx, armax, oe, bj)
 ==============================  ===========================================================
 
 Without importing this module first, ``gymnasium.make("thermogym.envs:thermogym/TCLab-v0")``

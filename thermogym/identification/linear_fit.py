@@ -39,6 +39,7 @@ from thermogym.models.linear import X0_MODES, FOPTDModel, StateSpaceModel
 from thermogym.recording import Recording
 
 __all__ = [
+    "LINEAR_MODELS",
     "OPERATING_CHOICES",
     "OPERATING_POINTS",
     "X0_CHOICES",
@@ -55,6 +56,10 @@ __all__ = [
     "simulate_recording",
 ]
 
+#: Models :func:`predict` simulates: ``ss``, ``foptd`` and, through their exact
+#: state-space realisation at the recording's period, the polynomial (ARX family)
+#: and SOPDT models of :mod:`thermogym.identification.pem`.
+LINEAR_MODELS: tuple[str, ...] = ("ss", "foptd", "sopdt", "arx", "armax", "oe", "bj")
 #: Operating-point modes (see the module docstring).
 OPERATING_POINTS: tuple[str, ...] = ("none", "initial", "mean", "rest")
 
@@ -234,6 +239,7 @@ def fit_model(
     *,
     u_op: NDArray[np.float64] | None = None,
     y_op: NDArray[np.float64] | None = None,
+    dt: float | None = None,
 ) -> tuple[FOPTDModel | StateSpaceModel, NDArray[np.float64]]:
     """The model of an ``ss`` or ``foptd`` FitResult with its operating point, and theta.
 
@@ -242,18 +248,26 @@ def fit_model(
     and get it from there); ``u_op``/``y_op`` replace it (FOPTD: ``y_op``
     becomes the offsets ``y0``).
 
+    A polynomial (``arx``, ``armax``, ``oe``, ``bj``) or ``sopdt`` fit is
+    returned as its exact deterministic state-space realisation at period
+    ``dt`` (default: the model's own, or the training period stored in the
+    fit), with the operating point of ``settings["operating_point"]``.
+
     Returns
     -------
     model : FOPTDModel or StateSpaceModel
     theta : ndarray, shape (1, P)
     """
     fit = load_fit(fit)
-    if fit.model not in ("ss", "foptd"):
+    if fit.model not in LINEAR_MODELS:
         raise ConfigError(
-            f"this needs an 'ss' or 'foptd' FitResult (a linear model); this one is {fit.model!r}"
+            f"this needs a FitResult of a linear model {list(LINEAR_MODELS)}; this one is "
+            f"{fit.model!r}"
         )
     model = fit.build_model()
     theta = fit.theta(model)
+    if not isinstance(model, FOPTDModel | StateSpaceModel):
+        return _realized(fit, model, theta, dt, u_op, y_op)
     if u_op is None and y_op is None:
         return model, theta  # type: ignore[return-value]
     cfg = dict(model.config())
@@ -270,6 +284,47 @@ def fit_model(
         for c, v in zip(model.output_names, np.asarray(y_op, dtype=float), strict=True):
             params[f"y0_{c}"] = float(v)
     return new, new.theta(params)
+
+
+def _realized(
+    fit: FitResult,
+    model: Any,
+    theta: NDArray[np.float64],
+    dt: float | None,
+    u_op: NDArray[np.float64] | None,
+    y_op: NDArray[np.float64] | None,
+) -> tuple[StateSpaceModel, NDArray[np.float64]]:
+    """A polynomial or SOPDT fit as a deterministic :class:`StateSpaceModel`."""
+    from thermogym.models.process import discrete_realization
+
+    period = dt or getattr(model, "dt", None) or fit.settings.get("dt")
+    if period is None:
+        raise ConfigError(f"the {fit.model} fit stores no sample period; give dt")
+    r, _ = discrete_realization(model, theta, float(period))
+    if r.A.shape[1] == 0:  # a pure gain: one inert state
+        A, B, C = np.zeros((1, 1)), np.zeros((1, r.B.shape[2])), np.zeros((r.C.shape[1], 1))
+    else:
+        A, B, C = r.A[0], r.B[0], r.C[0]
+    op = fit.settings.get("operating_point") or {}
+    exo, outs = list(model.exogenous_names), list(model.output_names)
+    if u_op is None:
+        u_op = np.array([float(op.get("inputs", {}).get(c, 0.0)) for c in exo])
+    if y_op is None:
+        y_op = np.array([float(op.get("outputs", {}).get(c, 0.0)) for c in outs])
+    ss = StateSpaceModel.from_matrices(
+        A,
+        B,
+        C,
+        r.D[0],
+        dt=float(period),
+        inputs=[s.name for s in model.inputs],
+        outputs=outs,
+        disturbances=[s.name for s in model.disturbances],
+        units={s.name: s.unit for s in model.signals},
+        u_op=np.asarray(u_op, dtype=float),
+        y_op=np.asarray(y_op, dtype=float),
+    )
+    return ss, ss.theta()
 
 
 def predict(
@@ -340,7 +395,7 @@ def predict(
         raise ConfigError(f"x0 is {x0!r}; expected one of {list(X0_CHOICES)}")
     if operating not in OPERATING_CHOICES:
         raise ConfigError(f"operating is {operating!r}; expected one of {list(OPERATING_CHOICES)}")
-    model, theta = fit_model(fit)
+    model, theta = fit_model(fit, dt=rec.dt)
     exo = list(model.exogenous_names)
     outs = list(model.output_names)
     missing = [c for c in exo if c not in rec.columns]
@@ -360,7 +415,7 @@ def predict(
         operating = "recording" if mode_op in ("initial", "rest") else "fit"
     if operating == "recording" and y is not None and mode_op in OPERATING_POINTS:
         u_rec, y_rec = operating_point(u, y, str(mode_op))
-        model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec)
+        model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec, dt=rec.dt)
         used = "recording"
     mode = x0
     if mode == "auto":
