@@ -348,7 +348,7 @@ _STRUCTURED: list[tuple[str, str, list[str], list[str]]] = [
     ("virtual-sensor", "--hidden", ["nope"], ["nope"]),
     ("virtual-sensor", "--rest", ["u", "u=", "=1", "u=nan", "u=inf"], ["u", "=1"]),
     ("virtual-sensor", "--reference", ["nope"], ["nope"]),
-    ("budget", "--range", ["u=5:1", "u=a:b", "u", "u=1"], ["u="]),
+    ("budget", "--range", ["u=5:1", "u=a:b", "u", "u=1"], ["u=", "--range"]),
     ("budget", "--target", ["z80"], ["z80"]),
     ("export", "--offset", ["u=abc", "u", "=2"], ["u=abc", "'u'", "=2"]),
     ("export", "--scale", ["y=x"], ["y=x"]),

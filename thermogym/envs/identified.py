@@ -83,6 +83,7 @@ Version History
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -102,7 +103,7 @@ from thermogym.envs._base import (
     check_number,
     parse_weights,
 )
-from thermogym.envs._plant import ParamsLike, Plant
+from thermogym.envs._plant import ParamsLike, Plant, is_overrides
 from thermogym.errors import ConfigError, ParameterError
 from thermogym.fitresult import load_fit
 from thermogym.models.process import discrete_realization
@@ -214,7 +215,21 @@ class _IdentifiedEngine(Engine):
                 f"{env}: plant is {cfg.plant!r}; only 'model' (an identified model of your own "
                 "plant has no virtual rig)"
             )
-        fit = load_fit(EXAMPLE_FIT if cfg.params is None else cfg.params)
+        overrides: dict[str, Any] = {}
+        params = cfg.params
+        if is_overrides(params):
+            # params={"a1_y": -0.9}: plain values on top of the default fit
+            overrides, params = dict(params), None  # type: ignore[arg-type]
+        fit = load_fit(EXAMPLE_FIT if params is None else params)
+        if overrides:
+            base_model = fit.build_model()
+            theta = base_model.theta(fit.theta(base_model), **overrides)  # unknown: listed
+            fit = dataclasses.replace(
+                fit,
+                parameters={n: float(theta[0, i]) for i, n in enumerate(base_model.param_names)},
+                method=f"{fit.method or 'nominal'} with overrides",
+                notes=f"parameters set by the caller: {sorted(overrides)}",
+            )
         if fit.model not in LINEAR_MODELS:
             raise ConfigError(
                 f"{env}: params is a FitResult of model {fit.model!r}; this environment runs "
