@@ -8,15 +8,16 @@ import pytest
 from thermogym.models.linear import StateSpaceModel
 from thermogym.studies import spindle as ss
 
-#: The rig's physics that no LTI model can hold: friction falling as the oil warms, and the
-#: rotating parts' convection switching with the speed (heating and cooling are no mirror
-#: images). Off, the rig is as LTI as paper 001 finds its spindle (section 3.1), and the
-#: pipeline must reach the paper's accuracy; on, the figures are measured by
-#: benchmarks/rig_fidelity_strut_spindle.py.
+#: The rig's physics that no LTI model can hold: friction changing as the oil warms, and the
+#: rotating parts' convection (nose, pulley, the spacer gap's Taylor vortices) stopping with
+#: the spindle (heating and cooling are no mirror images). Off, the rig is as LTI as paper
+#: 001 finds its spindle (section 3.1), and the pipeline must reach the paper's accuracy; on,
+#: the figures are measured by benchmarks/rig_fidelity.py.
 LTI_BREAKING = ("lubricant_viscosity", "rotating_convection")
-#: Across speeds an LTI model also needs heat in proportion to the speed (the rig's bearing
-#: friction grows as n^1.6 and with the preload, so a model from one speed mispredicts
-#: another's gain; the paper found the speed's influence negligible, section 3.1).
+#: Across speeds an LTI model also needs heat in proportion to the speed (the rig's SKF
+#: friction grows as n^1.15 to n^0.86 over 4000-8000 rpm, and with the thermal preload, so a
+#: model from one speed mispredicts another's gain by a few per cent; the paper found the
+#: speed's influence negligible, section 3.1).
 SPEED_LINEAR = (*LTI_BREAKING, "friction_power_law", "thermal_preload")
 
 

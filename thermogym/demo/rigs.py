@@ -1,9 +1,10 @@
 """Stage 1: the virtual test rigs run the papers' experiments.
 
 The strut and spindle rigs are plants of their own, richer than the models
-(:mod:`thermogym.rigs.strut`: the rotating screw's forced convection grows
-with the feed rate, the nonlinearity paper 000 section 4.1 names as the
-reason its linear models fail at other feed rates). The strut rig also
+(:mod:`thermogym.rigs.strut`: the convection of the screw turning in its
+enclosed annulus and of the moving push tube grows with the feed rate, a
+nonlinearity of the kind paper 000 section 4.1 names as the reason its linear
+models fail at other feed rates). The strut rig also
 carries a *concealed* effect (``input_dependent_heat_transfer``: a
 self-ventilated drive motor whose fan cools it harder at higher feed rates).
 Nothing downstream is told about either; stage 3 has to find them.
@@ -114,7 +115,7 @@ def stage_rigs(ctx: DemoContext, res: StageResult) -> None:
         "temperature staircase (stroke gain and backlash) and a PWM test. The step is "
         "overlaid with the package's nominal model.\n"
         f"* Strut (paper 000): feed-rate steps at 20, 25 and 30 m/min on a plant of its own "
-        "(conduction along the screw and the push tube, the rotating screw's convection "
+        "(conduction along the screw and the push tube, the enclosed screw's convection "
         "growing with the feed rate, copper losses growing with the winding temperature). The "
         f"rig also carries a **concealed effect** (`{CONCEALED}`: the drive motor's fan cools "
         "it harder at higher feed rates) that no model downstream is told about.\n"

@@ -18,6 +18,8 @@ Examples
 4.45
 >>> round(h_rotating_shaft(1000.0, 0.04), 1)  # the same screw at 1000 rpm
 37.5
+>>> round(k_ratio_rotating_annulus(1000.0, 0.020, 0.045), 1)  # ... turning inside a Ø90 tube
+12.0
 """
 
 from __future__ import annotations
@@ -32,12 +34,17 @@ __all__ = [
     "AIR_NU",
     "AIR_PR",
     "SIGMA",
+    "g_annulus_conduction",
+    "g_annulus_radiation",
     "h_cross_flow",
     "h_free_cylinder",
     "h_mixed",
     "h_moving_surface",
     "h_radiation",
+    "h_rotating_disk",
     "h_rotating_shaft",
+    "k_ratio_free_annulus",
+    "k_ratio_rotating_annulus",
 ]
 
 #: Kinematic viscosity of air at 300 K [m²/s] (Incropera Table A.4).
@@ -79,6 +86,19 @@ def h_rotating_shaft(n_rpm, D):  # pragma: no cover - numba
     w = abs(n_rpm) * 2.0 * math.pi / 60.0
     re = w * D * D / AIR_NU
     return 0.133 * re ** (2.0 / 3.0) * AIR_PR ** (1.0 / 3.0) * AIR_K / D
+
+
+@nb.njit(cache=True, inline="always")
+def h_rotating_disk(n_rpm, R):  # pragma: no cover - numba
+    """Face of a disk of radius ``R`` rotating in still air, mean [W/(m² K)].
+
+    Cobb & Saunders (1956, *Proc. R. Soc. A* 236:343), laminar:
+    ``Nu_R = h R / k = 0.36 Re^(1/2)``, ``Re = ω R² / ν`` (below 2.4·10⁵, where
+    the flow turns turbulent at the rim; beyond, the laminar mean is kept: a
+    turbulent rim raises it by some tens of per cent).
+    """
+    w = abs(n_rpm) * 2.0 * math.pi / 60.0
+    return 0.36 * math.sqrt(w * R * R / AIR_NU) * AIR_K / R
 
 
 @nb.njit(cache=True, inline="always")
@@ -131,3 +151,62 @@ def h_radiation(T, T_air, eps):  # pragma: no cover - numba
     a = T + _T0
     b = T_air + _T0
     return eps * SIGMA * (a * a + b * b) * (a + b)
+
+
+@nb.njit(cache=True, inline="always")
+def k_ratio_rotating_annulus(n_rpm, r_i, r_o):  # pragma: no cover - numba
+    """Air in an annulus whose inner cylinder turns: effective over molecular conductivity.
+
+    Becker & Kaye (1962, *J. Heat Transfer* 84:97-105), the air-gap correlation of
+    rotating electrical machines (Staton, Boglietti & Cavagnino, *IEEE Trans. Energy
+    Convers.* 20(3), 2005; reviewed by Fénot et al., *Int. J. Therm. Sci.* 50, 2011):
+    ``Ta = ω² r_m δ³ / ν²`` with the mean radius ``r_m`` and the gap ``δ``;
+    ``Nu = h 2δ / k`` is 2 (conduction, laminar Couette flow) below ``Ta = 1700``,
+    ``0.128 Ta^0.367`` up to 10⁴ (Taylor vortices) and ``0.409 Ta^0.241`` above
+    (measured to 10⁷; extrapolated beyond). Returns ``Nu / 2``, the factor on the
+    gap's conduction. The correlation was measured on narrow gaps; for a wide gap
+    (``δ / r_m`` near 1, a screw in a tube) it is an estimate, within the ±30 %
+    the rigs' spreads give their air exchanges.
+    """
+    w = abs(n_rpm) * 2.0 * math.pi / 60.0
+    d = r_o - r_i
+    ta = w * w * 0.5 * (r_i + r_o) * d * d * d / (AIR_NU * AIR_NU)
+    if ta < 1700.0:
+        return 1.0
+    if ta < 1e4:
+        return 0.5 * 0.128 * ta**0.367
+    return 0.5 * 0.409 * ta**0.241
+
+
+@nb.njit(cache=True, inline="always")
+def k_ratio_free_annulus(dT, r_i, r_o):  # pragma: no cover - numba
+    """Free convection in a horizontal annulus: effective over molecular conductivity.
+
+    Raithby & Hollands (1975), Incropera eqs 9.58-9.60:
+    ``k_eff / k = 0.386 (Pr / (0.861 + Pr))^(1/4) Ra_c^(1/4)`` with
+    ``Ra_c = [ln(r_o / r_i)]⁴ Ra_L / (L³ (D_i^(−3/5) + D_o^(−3/5))⁵)``, ``L = r_o − r_i``,
+    ``Ra_L`` on ``L`` and ``|ΔT|`` between the cylinders; at least 1 (conduction).
+    """
+    L = r_o - r_i
+    ra = _G / 300.0 * abs(dT) * L * L * L / (AIR_NU * AIR_ALPHA)
+    s = (2.0 * r_i) ** -0.6 + (2.0 * r_o) ** -0.6
+    rac = math.log(r_o / r_i) ** 4 * ra / (L * L * L * s**5)
+    k = 0.386 * (AIR_PR / (0.861 + AIR_PR)) ** 0.25 * rac**0.25
+    return k if k > 1.0 else 1.0
+
+
+def g_annulus_conduction(r_i: float, r_o: float) -> float:
+    """Conduction through the air of an annulus per metre [W/(m K)]: ``2π k / ln(r_o/r_i)``."""
+    return 2.0 * math.pi * AIR_K / math.log(r_o / r_i)
+
+
+def g_annulus_radiation(
+    r_i: float, r_o: float, eps_i: float, eps_o: float, T: float = 25.0
+) -> float:
+    """Radiation between long concentric cylinders per metre [W/(m K)], linearised at ``T`` °C.
+
+    ``q' = 2π r_i σ (T_i⁴ − T_o⁴) / (1/ε_i + (r_i/r_o)(1/ε_o − 1))`` (Incropera eq 13.25).
+    """
+    a = T + _T0
+    resistance = 1.0 / eps_i + r_i / r_o * (1.0 / eps_o - 1.0)
+    return 2.0 * math.pi * r_i * 4.0 * SIGMA * a**3 / resistance

@@ -14,23 +14,37 @@ Design (the rig's own estimates)
 --------------------------------
 Shaft Ø85/25 mm × 0.60 m (11 kJ/K), bearing sleeve Ø180/125 mm × 0.52 m
 (25 kJ/K), cast-iron outer housing Ø260/180 mm × 0.62 m (57 kJ/K), an
-aluminium pulley (1.8 kJ/K). Bearings: rear pair d_m 80 mm, front pair
-d_m 90 mm, light preload 200 N, grease with ISO VG 22 base oil. Friction per
-bearing (Palmgren; Harris, *Rolling Bearing Analysis*)::
+aluminium pulley (Ø150 × 50 mm, 1.8 kJ/K). Bearings: rear pair d_m 80 mm,
+front pair d_m 90 mm (70-series proportions, D − d = 0.44 d_m), light preload
+200 N, grease-lubricated (the run-in of paper 001 is a grease run-in) with an
+ISO VG 22 base oil. Friction per bearing by the SKF model (SKF, *Rolling
+bearings*, PUB BU/P1 17000, 2018, "The SKF model for calculating the
+frictional moment"; also General Catalogue 6000, 2005) for a single-row
+angular contact ball bearing under the axial preload ``F_a`` (no radial
+load)::
 
-    M = M_0 + M_1,  M_0 = 10⁻⁷ f_0 (ν n)^(2/3) d_m³,  M_1 = f_1 F d_m,  P = M ω
+    M = φ_ish φ_rs G_rr (ν n)^0.6 + G_sl μ_sl,   P = M ω
+    G_rr = R1 d_m^1.97 (R2 F_a)^0.54,   G_sl = S1 d_m^0.26 S2 F_a^(4/3)
+    φ_ish = 1 / (1 + 1.84e-9 (n d_m)^1.28 ν^0.64)            (inlet shear heating)
+    φ_rs = exp(−K_rs ν n (d + D) sqrt(K_z / (2 (D − d))))    (replenishment/starvation)
+    μ_sl = φ_bl 0.15 + (1 − φ_bl) 0.05,  φ_bl = exp(−2.6e-8 (n ν)^1.4 d_m)
 
-with ``f_1 = 0.001 (F_0/C_0)^(1/3)`` (SKF, angular-contact bearings; C_0 25 kN
-front, 18 kN rear), the preload ``F = F_0 + k_th (T_inner ring − T_outer
-ring)`` and f_0 = 0.26, the equivalent of a run-in grease fill (chosen so that
-the four bearings make 116 W at 6000 rpm and 40 °C and a run-in day at
-4000-8000 rpm rises by tens of kelvin as in the paper's run-in; catalogue
-values for fresh grease give several times more). The viscous term, 92 % of the
-heat at 6000 rpm, grows as n^(5/3), the load term as n: isothermally the heat
-grows as n^1.61 from 4000 to 8000 rpm. Belt hysteresis: 1.5 W per 1000 rpm
-into the pulley. The slowest time constant is about 3.5 h, so a run at
-4000-8000 rpm settles (1 °C in 3 h) within the day and cools by the evening, as
-in the paper's Table 4 protocol.
+with R1 = 5.03e-7, R2 = 1.97, S1 = 1.30e-2, S2 = 0.68 (single-row angular
+contact ball bearings), K_z = 4.4, K_rs = 6e-8 (grease and oil-air), ν the
+base oil's viscosity at the rings' mean temperature, the preload
+``F_a = F_0 + k_th (T_inner ring − T_outer ring)``. The four bearings make 140 W
+at 6000 rpm and 40 °C with these catalogue constants (no fitted factor). At
+n·d_m ≈ 5·10⁵ mm/min a grease-lubricated bearing runs starved and the inlet
+heats the film: the rolling moment grows little with speed and viscosity, and
+the heat grows about as n (n^1.3 from 4000 to 5000 rpm, n^0.9 from 7000 to
+8000 at 40 °C). (An earlier version of this rig used Palmgren's
+``M_0 = 10⁻⁷ f_0 (ν n)^(2/3) d_m³``, a law for flooded bearings at moderate
+speeds: its heat grows as n^(5/3) and falls 1.8 %/K with the oil's
+viscosity, and it needed f_0 = 0.26, an eighth of the catalogue's value for
+grease, to give a plausible heat.) Belt hysteresis: 1.5 W per 1000 rpm into
+the pulley. The slowest time constant is about 3.5 h, so a run at 4000-8000
+rpm settles (1 °C in 3 h) within the day and cools by the evening, as in the
+paper's Table 4 protocol.
 
 What the rig has that the identified model lacks
 ------------------------------------------------
@@ -39,25 +53,37 @@ Each entry: physical source; size; switch (``SpindlePlant(off=[name])`` or
 :data:`EXTRAS`.
 
 ``friction_power_law``
-    Palmgren's viscous friction M_0 ∝ (ν n)^(2/3), so P ∝ n^(5/3), beside the
-    load term ∝ n (the model: heat ∝ n). 92 % of the heat at 6000 rpm; the
-    total grows as n^1.61 from 4000 to 8000 rpm at 40 °C, as n^1.32 between the
-    steady states (the warmer oil is thinner: ``lubricant_viscosity``). Switch
-    ``friction_power_law`` (off: the same heat at 6000 rpm, linear in n).
+    The SKF frictional moment (rolling, reduced by inlet shear heating and
+    starvation; sliding) at the actual speed: the heat grows about as n^1.0
+    (89 W at 4000 rpm, 140 at 6000, 181 at 8000, at 40 °C), with a slope
+    falling from n^1.3 to n^0.9 over the range. Switch ``friction_power_law``
+    (off: the moment at 6000 rpm at every speed, heat exactly ∝ n, as the
+    model).
 ``thermal_preload``
     The inner ring runs warmer than the outer ring and the fixed-position
     preload grows, ``k_th`` = 40 N/K per bearing (radial expansion
-    α d ΔT = 0.9 µm/K against ~45 N/µm contact stiffness): +20 % of the
-    load friction (+0.75 % of the bearing heat) per kelvin of ring difference.
-    Switch ``thermal_preload``.
+    α d ΔT = 0.9 µm/K against ~45 N/µm contact stiffness): through
+    ``G_rr ∝ F_a^0.54`` the rolling friction rises 10 % per kelvin of ring
+    difference (1-1.5 K at 6000 rpm: +11 % heat). Switch ``thermal_preload``.
 ``lubricant_viscosity``
-    Base-oil viscosity falls with temperature, ν = 22 mm²/s ·
-    exp(−0.027 (T − 40 °C)) (ISO VG 22: 22 mm²/s at 40 °C, 4.3 at 100 °C):
-    −1.8 % of the viscous friction per kelvin. Switch ``lubricant_viscosity``.
+    The base oil's viscosity at the rings' temperature, ASTM D341 (Walther)
+    through the ISO VG 22 oil's 22 mm²/s at 40 °C and 4.3 at 100 °C (49 at
+    22 °C, 11 at 60 °C). In the SKF law the rolling moment depends on it as
+    ``ν^0.6 φ_ish φ_rs``: −0.7 %/K at 4000 rpm and 40 °C, +0.3 %/K at 8000
+    (starvation), nil at 22 °C and 6000 rpm. Switch ``lubricant_viscosity``
+    (off: ν at 40 °C).
 ``rotating_convection``
-    Nose and pulley rotate in the air, ``Nu = 0.133 Re_ω^(2/3) Pr^(1/3)``
-    (Kays & Bjorklund; Bossmanns & Tu, ref. [3] of paper 001): 160 W/(m² K)
-    on the nose at 6000 rpm against 6 still. Switch ``rotating_convection``.
+    The rotating parts in the air: the nose a rotating cylinder,
+    ``Nu = 0.133 Re_ω^(2/3) Pr^(1/3)`` (Kays & Bjorklund; Bossmanns & Tu, ref.
+    [3] of paper 001), 160 W/(m² K) at 6000 rpm against 6 still (2.6 W/K); the
+    pulley its rim outside the belt's 180° wrap (the same correlation) and its
+    two faces as rotating disks, ``Nu_R = 0.36 Re^(1/2)`` (Cobb & Saunders
+    1956): 3.7 W/K at 6000 rpm against 0.2 still; and the 1 mm gap between the
+    rotating and the stationary spacer sleeves, where Taylor vortices raise
+    the conduction ×2.6-3.6 at 4000-8000 rpm (Becker & Kaye 1962:
+    ``Ta = ω² r_m δ³/ν²`` = 3.7·10⁴-1.5·10⁵, above the 1700 of Taylor's
+    instability). All smooth in the speed; they switch when the spindle
+    stops because its speed does. Switch ``rotating_convection``.
 ``distributed_nodes``
     The shaft (30 segments), the sleeve and the outer housing (10 each) are
     conducting bodies, each bearing has an inner and an outer ring joined by
@@ -80,8 +106,9 @@ Concealed effects (``effect_defaults``; written here, never borrowed from the
 model's augmentations or the diagnosis, never named in recordings):
 
 * ``input_nonlinearity`` — the balls' centrifugal force loads the outer
-  raceway: ``F += k_c (n / 1000 rpm)²``, k_c = 5 N (12.7 mm balls at
-  d_m 90 mm: ~50 N per ball at 8000 rpm), so the load friction grows as n³.
+  raceway: the SKF model's centrifugal term ``F_g = k_c (n / 1000 rpm)²`` in
+  ``G_rr`` and ``G_sl``, k_c = 5 N (12.7 mm balls at d_m 90 mm: ~50 N per
+  ball at 8000 rpm, 320 N in all), so the friction grows faster than n.
 * ``input_dependent_heat_transfer`` — the drive motor's shaft fan blows along
   the outer housing at 1.5 m/s at 6000 rpm (∝ speed): laminar flat-plate
   convection (Incropera eq 7.30) mixed with free convection: the housing's air
@@ -89,7 +116,7 @@ model's augmentations or the diagnosis, never named in recordings):
 * ``nonlinear_heat_transfer`` — free convection and radiation at the actual
   temperatures instead of their 10 K linearisation.
 * ``time_varying_parameter`` — grease churning: after a night at rest the
-  grease has flowed back into the rolling path and the viscous friction is
+  grease has flowed back into the rolling path and the rolling friction is
   60 % higher; it channels out with a 1.5 h time constant while running and
   flows back with 8 h at rest.
 * ``unmeasured_disturbance`` — a 2 K, 5 h machine-hall air-conditioning cycle
@@ -150,7 +177,9 @@ from thermogym.rigs._convection import (
     h_mixed,
     h_moving_surface,
     h_radiation,
+    h_rotating_disk,
     h_rotating_shaft,
+    k_ratio_rotating_annulus,
 )
 from thermogym.rigs._machine import Links, ratio_parameters, segment_weights
 from thermogym.rigs.base import (
@@ -197,34 +226,41 @@ _ROLES = {"speed": "input", "T_amb": "disturbance", **{k: "output" for k in TEMP
 EXTRAS: tuple[ExtraPhysics, ...] = (
     ExtraPhysics(
         "friction_power_law",
-        "viscous bearing friction grows with speed to the power 5/3 beside the load term",
-        "Palmgren: M_0 = 1e-7 f_0 (ν n)^(2/3) d_m³, M_1 = f_1 F d_m (Harris, Rolling "
-        "Bearing Analysis; SKF catalogue)",
-        "92 % of the bearing heat at 6000 rpm; the heat grows as n^1.61 from 4000 to 8000 rpm "
-        "at 40 °C (n^1.32 between the steady states: the warmer oil is thinner)",
-        "the same heat at 6000 rpm, proportional to speed (as the model)",
+        "bearing friction at the actual speed: rolling (reduced by inlet shear heating and "
+        "starvation) and sliding",
+        "SKF model of the frictional moment (SKF Rolling bearings PUB BU/P1 17000, 2018; "
+        "General Catalogue 6000, 2005): M = φ_ish φ_rs R1 d_m^1.97 (R2 F_a)^0.54 (ν n)^0.6 "
+        "+ G_sl μ_sl, grease K_rs = 6e-8",
+        "89 W at 4000 rpm, 140 at 6000, 181 at 8000 (40 °C): about n^1.0 (n^1.15 at "
+        "4000-5000, n^0.86 at 7000-8000)",
+        "the moment at 6000 rpm at every speed: heat proportional to speed (as the model)",
     ),
     ExtraPhysics(
         "thermal_preload",
         "the preload grows as the inner ring runs warmer than the outer ring",
-        "radial expansion α d ΔT = 0.9 µm/K against ~45 N/µm of contact stiffness",
-        "k_th = 40 N/K on a 200 N preload: +20 % of the load friction (+0.75 % of the bearing "
-        "heat) per kelvin of ring difference",
+        "radial expansion α d ΔT = 0.9 µm/K against ~45 N/µm of contact stiffness; "
+        "G_rr ∝ F_a^0.54 (SKF)",
+        "k_th = 40 N/K on a 200 N preload: +11 % of the bearing heat per kelvin of ring "
+        "difference (1-1.5 K at 6000 rpm)",
         "constant preload",
     ),
     ExtraPhysics(
         "lubricant_viscosity",
         "the base oil's viscosity falls with temperature",
-        "ISO VG 22: 22 mm²/s at 40 °C, 4.3 mm²/s at 100 °C, ν = ν_40 exp(−0.027 (T − 40))",
-        "−1.8 % of the viscous friction per kelvin",
+        "ISO VG 22: 22 mm²/s at 40 °C, 4.3 mm²/s at 100 °C, ASTM D341 (Walther) between",
+        "heat −1.1 %/K at 4000 rpm, −0.5 %/K at 6000, +0.1 %/K at 8000 (40 °C); "
+        "+0.1 to +3 %/K at 22 °C (thinner oil relieves the starvation)",
         "viscosity at 40 °C",
     ),
     ExtraPhysics(
         "rotating_convection",
-        "nose and pulley rotate in the air",
-        "Nu = 0.133 Re_ω^(2/3) Pr^(1/3) (Kays & Bjorklund 1958; Bossmanns & Tu, ref. [3] of 001)",
-        "160 W/(m² K) on the nose at 6000 rpm against 6 in still air",
-        "free convection and radiation only",
+        "nose, pulley and the spacer gap's air turn with the shaft",
+        "Nu = 0.133 Re_ω^(2/3) Pr^(1/3) (Kays & Bjorklund 1958; Bossmanns & Tu, ref. [3] of "
+        "001) on the nose and the pulley's free rim; Nu_R = 0.36 Re^(1/2) on its faces "
+        "(Cobb & Saunders 1956); Taylor vortices in the 1 mm spacer gap (Becker & Kaye 1962)",
+        "nose 2.6 W/K and pulley 3.7 W/K at 6000 rpm (0.1 and 0.2 still); spacer gap "
+        "conduction ×2.6-3.6 at 4000-8000 rpm",
+        "free convection and radiation only; the spacer gap conducts",
     ),
     ExtraPhysics(
         "distributed_nodes",
@@ -277,17 +313,24 @@ _OUTER = (0.0, 0.62, 0.260, 0.180)
 _PULLEY = (0.0, 0.05)
 _NOSE = (0.54, 0.60)
 _SPACER = (0.13, 0.46)  # shaft inside the sleeve between the pairs: spacer sleeves
-_SPACER_GAP = 0.001  # m air gap between rotating and stationary spacer (Ta < 1700)
-_BEARINGS = (  # name, x from, x to, d_m [mm], static load rating C_0 [N]
-    ("A", 0.07, 0.09, 80.0, 18000.0),
-    ("B", 0.10, 0.12, 80.0, 18000.0),
-    ("C", 0.47, 0.49, 90.0, 25000.0),
-    ("D", 0.50, 0.52, 90.0, 25000.0),
+_SPACER_GAP = 0.001  # m air gap between rotating and stationary spacer
+_R_SPACER = 0.5 * _D_SHAFT + 0.01  # m, the rotating spacer's outer radius
+_SPACER_RADII = (_R_SPACER, _R_SPACER + _SPACER_GAP)
+_BEARINGS = (  # name, x from, x to, d_m [mm], D − d [mm] (70-series proportions, 0.44 d_m)
+    ("A", 0.07, 0.09, 80.0, 35.2),
+    ("B", 0.10, 0.12, 80.0, 35.2),
+    ("C", 0.47, 0.49, 90.0, 39.6),
+    ("D", 0.50, 0.52, 90.0, 39.6),
 )
 _FITS = ((0.04, 0.13, 15.0), (0.45, 0.56, 15.0))  # sleeve in the outer housing [W/K]
 _GAP_IO = 0.002  # m air gap between sleeve and outer housing between the fits
-_F0_VISC, _PRELOAD, _K_TH = 0.26, 200.0, 40.0
-_NU40, _NU_B = 22.0, 0.027  # mm²/s, 1/K
+_PRELOAD, _K_TH = 200.0, 40.0
+_NU40, _NU100 = 22.0, 4.3  # mm²/s: ISO VG 22 base oil of the spindle grease
+#: SKF friction model, single-row angular contact ball bearings (module docstring)
+_SKF_R = (5.03e-7, 1.97, 1.90e-12)  # R1, R2, R3 (rolling)
+_SKF_S = (1.30e-2, 0.68, 1.91e-12)  # S1, S2, S3 (sliding)
+_SKF_KZ, _SKF_KRS = 4.4, 6e-8  # geometry constant; replenishment constant, grease
+_MU_BL, _MU_EHL = 0.15, 0.05  # sliding friction: boundary, full film (mineral base oil)
 _N_REF = 6000.0
 _Q_BELT = 1.5  # W per 1000 rpm
 _C_IR, _C_OR, _C_PULLEY = 140.0, 200.0, 1800.0
@@ -295,7 +338,11 @@ _G_IR, _G_OR, _G_BALLS, _G_SPACER_RING = 25.0, 15.0, 2.5, 3.0
 _G_PULLEY = 5.0
 _G_LABYRINTH = 0.5
 _G_BENCH = 3.0  # W/K, feet on the bench (at room temperature)
-_A_PULLEY, _D_PULLEY = 0.059, 0.15
+#: pulley Ø150 × 50 mm on the Ø85 shaft: the rim not under the belt (180° wrap) and two faces
+_D_PULLEY, _W_PULLEY = 0.15, 0.05
+_A_RIM = 0.5 * math.pi * _D_PULLEY * _W_PULLEY
+_A_FACES = 2.0 * math.pi / 4.0 * (_D_PULLEY**2 - _D_SHAFT**2)
+_A_PULLEY = _A_RIM + _A_FACES
 _EPS_HOUSING, _EPS_SHAFT, _EPS_PULLEY = 0.9, 0.3, 0.2
 _DT_DESIGN = 10.0
 _RTD_TAU = (40.0, 40.0, 40.0, 40.0, 60.0, 120.0, 120.0)
@@ -303,9 +350,20 @@ _SIM_DT = 10.0  # s, grid of the protocols' simulations
 
 
 def _spacer_conductance_per_m() -> float:
-    """Air gap of the spacer sleeves: below Taylor's instability, conduction only [W/(m K)]."""
-    r = 0.5 * _D_SHAFT + 0.01
-    return _K_AIR * 2 * math.pi * r / _SPACER_GAP
+    """Air gap of the spacer sleeves at rest, conduction [W/(m K)] (Taylor vortices: kernel)."""
+    return _K_AIR * 2 * math.pi * _R_SPACER / _SPACER_GAP
+
+
+def _walther() -> tuple[float, float]:
+    """ASTM D341 (Walther): ``log log (ν + 0.7) = A − B log T`` through ν at 40 and 100 °C."""
+    z40 = math.log10(math.log10(_NU40 + 0.7))
+    z100 = math.log10(math.log10(_NU100 + 0.7))
+    t40, t100 = math.log10(313.15), math.log10(373.15)
+    b = (z40 - z100) / (t100 - t40)
+    return z40 + b * t40, b
+
+
+_WALTHER_A, _WALTHER_B = _walther()
 
 
 @dataclass(frozen=True)
@@ -314,16 +372,17 @@ class _Arrays:
     ei: NDArray[np.int64]
     ej: NDArray[np.int64]
     eg: NDArray[np.float64]  # (B, E)
+    eann: NDArray[np.int64]  # (E,) 1: across the spacer gap (Taylor vortices while turning)
     A: NDArray[np.float64]  # (B, nn)
     gb: NDArray[np.float64]  # (B, nn) bench conductance to ambient
     D: NDArray[np.float64]
     eps: NDArray[np.float64]
     hnat: NDArray[np.float64]
     hrad: NDArray[np.float64]
-    ftype: NDArray[np.int64]  # 0 none, 1 rotating, 2 housing in the fan stream
+    ftype: NDArray[np.int64]  # 0 none, 1 rotating shaft, 2 housing in the fan stream, 3 pulley
     bir: NDArray[np.int64]  # (4,) inner-ring node
     bor: NDArray[np.int64]  # (4,) outer-ring node
-    bpar: NDArray[np.float64]  # (B, 4, 4): m0 at n_ref & 40 °C [N m], f1 d_m [m], F0 [N], k_th
+    bpar: NDArray[np.float64]  # (B, 4, 5): scale, d_m [mm], F0 [N], k_th [N/K], D − d [mm]
     qbelt: NDArray[np.float64]  # (B,) W per rpm into the pulley
     ipul: int
     rtd: NDArray[np.int64]  # (7,) node each RTD sits on
@@ -480,26 +539,27 @@ class SpindlePlant(TruePlant):
         for i in range(Nh - 1):
             L.add(O0 + i, O0 + i + 1, _K_IRON * a_ou / dxo)
         L.spread(0, S0, segment_weights(xs, *_PULLEY), _G_PULLEY)
-        bpar = np.zeros((B, 4, 4))
-        visc = _F0_VISC * (_NU40 * _N_REF) ** (2.0 / 3.0) * 1e-7 * 1e-3  # N m per mm³ of d_m³
-        for k, (_, a, b, dm, c0) in enumerate(_BEARINGS):
+        bpar = np.zeros((B, 4, 5))
+        for k, (_, a, b, dm, wall) in enumerate(_BEARINGS):
             ir, orr = 2 + k, 6 + k
             L.spread(ir, S0, segment_weights(xs, a, b), _G_IR)
             L.spread(orr, I0, segment_weights(xi, a, b), _G_OR)
             L.add(ir, orr, _G_BALLS * sp["g_contact"])
-            bpar[:, k, 0] = visc * dm**3 * sp["loss_bearing"]
-            f1 = 0.001 * (_PRELOAD / c0) ** (1.0 / 3.0)
-            bpar[:, k, 1] = f1 * dm * 1e-3 * sp["loss_bearing"]
+            bpar[:, k, 0] = sp["loss_bearing"]  # on the SKF frictional moment
+            bpar[:, k, 1] = dm
             bpar[:, k, 2] = _PRELOAD * sp["preload"]
             bpar[:, k, 3] = _K_TH if ph["thermal_preload"] else 0.0
+            bpar[:, k, 4] = wall  # D − d [mm]
         for a, b in ((2, 3), (4, 5), (6, 7), (8, 9)):  # spacer rings within each pair
             L.add(a, b, _G_SPACER_RING)
         # shaft ↔ sleeve across the spacer gap, sleeve ↔ outer housing (fits, air gap)
         g_sp = _spacer_conductance_per_m() * (_SPACER[1] - _SPACER[0])
         w_s = segment_weights(xs, *_SPACER)
         w_i = segment_weights(xi, *_SPACER)
+        spacer = set()
         for m in np.flatnonzero(w_s > 0).tolist():
             L.spread(S0 + m, I0, w_i, g_sp * w_s[m])
+            spacer |= {(S0 + m, I0 + int(j)) for j in np.flatnonzero(w_i > 0)}
         for a, b, g in _FITS:
             w_a, w_b = segment_weights(xi, a, b), segment_weights(xo, a, b)
             for m in np.flatnonzero(w_a > 0).tolist():
@@ -514,6 +574,11 @@ class SpindlePlant(TruePlant):
             w = segment_weights(xo, _OUTER[1] - 0.12, _OUTER[1])
             L.spread(1, O0, w, float(md.get("G", 4.0)))
         ei, ej, eg = L.arrays()
+        # the spacer gap's links carry Taylor vortices while the shaft turns
+        eann = np.array(
+            [int((a, b) in spacer) for a, b in zip(ei.tolist(), ej.tolist(), strict=True)],
+            dtype=np.int64,
+        )
         # air
         A = np.zeros((B, nn))
         gb = np.zeros((B, nn))
@@ -537,7 +602,7 @@ class SpindlePlant(TruePlant):
         A *= sp["g_air"][:, None]
         gb *= sp["g_air"][:, None]
         if ph["rotating_convection"]:
-            ftype[0] = 1
+            ftype[0] = 3  # the pulley: its free rim and two faces
             ftype[S0:I0] = np.where(w_nose > 0, 1, 0)
         if "input_dependent_heat_transfer" in cc:
             ftype[O0:] = 2
@@ -558,7 +623,12 @@ class SpindlePlant(TruePlant):
             dtype=np.int64,
         )
         tau = np.array(_RTD_TAU)[None] * sp["rtd_tau"][:, None]
-        tot = L.totals(nn) + gb
+        f_hi = k_ratio_rotating_annulus(12000.0, *_SPACER_RADII) if ph["rotating_convection"] else 1
+        tot = gb.copy()
+        for e, (a, b) in enumerate(zip(ei.tolist(), ej.tolist(), strict=True)):
+            g = eg[:, e] * (f_hi if eann[e] else 1.0)
+            tot[:, a] += g
+            tot[:, b] += g
         h_hi = 250.0 if ph["rotating_convection"] else 30.0
         rho = np.max((tot + A * h_hi) / C, axis=1)
         if ph["sensor_mounting"]:
@@ -566,7 +636,7 @@ class SpindlePlant(TruePlant):
         bir = np.arange(2, 6, dtype=np.int64)
         bor = np.arange(6, 10, dtype=np.int64)
         return _Arrays(
-            C, ei, ej, eg, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar, qbelt, 0,
+            C, ei, ej, eg, eann, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar, qbelt, 0,
             rtd, tau, rho,
         )  # fmt: skip
 
@@ -580,6 +650,7 @@ class SpindlePlant(TruePlant):
                 int(ph["lubricant_viscosity"]),
                 int(ph["heat_partition"]),
                 int(ph["sensor_mounting"]),
+                int(ph["rotating_convection"]),
             ],
             dtype=np.int64,
         )
@@ -591,14 +662,18 @@ class SpindlePlant(TruePlant):
         return np.array(
             [
                 _N_REF,
-                _NU40,
-                _NU_B,
+                _WALTHER_A,
+                _WALTHER_B,
                 float(nl.get("k_c", 5.0)) if "input_nonlinearity" in self.concealed else 0.0,
                 float(fan.get("air_speed", 1.5)) / float(fan.get("at_rpm", 6000.0)),
                 _OUTER[1] - _OUTER[0],
                 float(tv.get("churn", 0.6)),
                 3600.0 * float(tv.get("tau_h", 1.5)),
                 3600.0 * float(tv.get("rest_h", 8.0)),
+                _NU40,
+                *_SPACER_RADII,
+                _A_RIM / _A_PULLEY,
+                0.5 * _D_PULLEY,
             ]
         )
 
@@ -697,7 +772,7 @@ class SpindlePlant(TruePlant):
             ``source`` (B, n_nodes) heat generated in each node [W]; ``g_air``
             (B, n_nodes) its conductance to the ambient (air and bench) [W/K];
             ``generated`` and ``to_air`` (B,) totals [W]; ``stored`` (B,)
-            ``Σ C dT/dt`` [W].
+            ``Σ C dT/dt`` [W]; ``dTdt`` (B, n_nodes) each node's rate [K/s].
         """
         arr = self.arrays(specimens)
         B, nn = specimens.n, self.n_nodes
@@ -706,7 +781,7 @@ class SpindlePlant(TruePlant):
         rec = np.zeros((B, 2, nn))
         dxdt = np.zeros((B, self.n_states))
         _flows(
-            X, U, arr.C, arr.ei, arr.ej, arr.eg, arr.A, arr.gb, arr.D, arr.eps, arr.hnat,
+            X, U, arr.C, arr.ei, arr.ej, arr.eg, arr.eann, arr.A, arr.gb, arr.D, arr.eps, arr.hnat,
             arr.hrad, arr.ftype, arr.bir, arr.bor, arr.bpar, arr.qbelt, arr.ipul, arr.rtd,
             arr.tau, self._flags(), self._par(), rec, dxdt,
         )  # fmt: skip
@@ -716,6 +791,7 @@ class SpindlePlant(TruePlant):
             "generated": rec[:, 0].sum(axis=1),
             "to_air": np.sum(rec[:, 1] * (X[:, :nn] - U[:, 1:2]), axis=1),
             "stored": np.sum(arr.C * dxdt[:, :nn], axis=1),
+            "dTdt": dxdt[:, :nn].copy(),
         }
 
     def _simulate(
@@ -749,34 +825,53 @@ class SpindlePlant(TruePlant):
         nsub = max(1, math.ceil(dt * float(arr.rho.max())))
         _simulate(
             np.ascontiguousarray(x), np.ascontiguousarray(U), float(dt), nsub,
-            arr.C, arr.ei, arr.ej, arr.eg, arr.A, arr.gb, arr.D, arr.eps, arr.hnat, arr.hrad,
-            arr.ftype, arr.bir, arr.bor, arr.bpar, arr.qbelt, arr.ipul, arr.rtd, arr.tau,
+            arr.C, arr.ei, arr.ej, arr.eg, arr.eann, arr.A, arr.gb, arr.D, arr.eps, arr.hnat,
+            arr.hrad, arr.ftype, arr.bir, arr.bor, arr.bpar, arr.qbelt, arr.ipul, arr.rtd,
+            arr.tau,
             self._flags(), self._par(), y, xs, keep,
         )  # fmt: skip
 
 
 # ------------------------------------------------------------------ compiled kernel
+@nb.njit(cache=True, inline="always")
+def _viscosity(T, par):  # pragma: no cover - numba
+    # base-oil viscosity [mm²/s] at T [°C], ASTM D341 (Walther) through ν40 and ν100
+    z = par[1] - par[2] * math.log10(T + 273.15)
+    return 10.0 ** (10.0**z) - 0.7
+
+
+@nb.njit(cache=True, inline="always")
+def _skf_moment(n, nu, dm, wall, Fa, Fg, rolling_scale):  # pragma: no cover - numba
+    # SKF frictional moment [N mm] of a single-row angular contact ball bearing under the
+    # axial load Fa [N], no radial load, Fg [N] the balls' centrifugal load (the concealed
+    # input_nonlinearity; 0 otherwise): rolling M_rr = φ_ish φ_rs G_rr (ν n)^0.6, sliding
+    # M_sl = G_sl μ_sl (module docstring); rolling_scale multiplies M_rr
+    if n <= 0.0:
+        return 0.0
+    g_rr = 5.03e-7 * dm**1.97 * (Fg + 1.97 * Fa) ** 0.54
+    ish = 1.0 / (1.0 + 1.84e-9 * (n * dm) ** 1.28 * nu**0.64)
+    rs = math.exp(-6e-8 * nu * n * 2.0 * dm * math.sqrt(4.4 / (2.0 * wall)))
+    m_rr = rolling_scale * ish * rs * g_rr * (nu * n) ** 0.6
+    g_sl = 1.30e-2 * dm**0.26 * (Fg ** (4.0 / 3.0) + 0.68 * Fa ** (4.0 / 3.0))
+    bl = math.exp(-2.6e-8 * (n * nu) ** 1.4 * dm)
+    return m_rr + g_sl * (bl * 0.15 + (1.0 - bl) * 0.05)
+
+
 @nb.njit(cache=True)
 def _friction(x, n, bir, bor, bpar, flags, par, k):  # pragma: no cover - numba
-    # friction power of bearing k [W] and its mean ring temperature
+    # friction power of bearing k [W]
     tv, law, visc = flags[1], flags[2], flags[3]
     Ti = x[bir[k]]
     To = x[bor[k]]
-    w = n * 2.0 * math.pi / 60.0
-    m0 = bpar[k, 0]  # at n_ref and 40 °C
-    if visc:  # M_0 ∝ ν^(2/3)
-        m0 *= math.exp(-par[2] * (2.0 / 3.0) * (0.5 * (Ti + To) - 40.0))
-    if tv:
-        m0 *= 1.0 + par[6] * x[x.shape[0] - 1]
-    if law:
-        m0 *= (n / par[0]) ** (2.0 / 3.0)
-    else:
-        m0 *= n / par[0]  # linear law: the same heat at n_ref, proportional to speed
-        w = par[0] * 2.0 * math.pi / 60.0
-    F = bpar[k, 2] + bpar[k, 3] * (Ti - To) + par[3] * (n / 1000.0) ** 2
+    nu = _viscosity(0.5 * (Ti + To), par) if visc else par[9]
+    churn = 1.0 + par[6] * x[x.shape[0] - 1] if tv else 1.0
+    F = bpar[k, 2] + bpar[k, 3] * (Ti - To)
     if F < 0.0:
         F = 0.0
-    return w * m0 + n * 2.0 * math.pi / 60.0 * bpar[k, 1] * F
+    Fg = par[3] * (n / 1000.0) ** 2
+    # the law off: the moment at n_ref for every speed (heat in proportion to the speed)
+    m = _skf_moment(n if law else par[0], nu, bpar[k, 1], bpar[k, 4], F, Fg, churn)
+    return bpar[k, 0] * m * 1e-3 * n * 2.0 * math.pi / 60.0
 
 
 @nb.njit(cache=True)
@@ -788,14 +883,15 @@ def _bearing_power(x, n, bir, bor, bpar, flags, par, out):  # pragma: no cover -
 
 @nb.njit(cache=True)
 def _rhs(
-    x, n, Ta, C, ei, ej, eg, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar, qbelt, ipul,
-    rtd, tau, flags, par, out, rec, record,
+    x, n, Ta, C, ei, ej, eg, eann, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar, qbelt,
+    ipul, rtd, tau, flags, par, out, rec, record,
 ):  # pragma: no cover - numba  # fmt: skip
     # dx/dt into out; with record, each node's heat source [W] and conductance to the
     # ambient [W/K] into rec[0], rec[1]
     nn = C.shape[0]
     nl, tv, part, lag = flags[0], flags[1], flags[4], flags[5]
     n = abs(n)
+    f_gap = k_ratio_rotating_annulus(n, par[10], par[11]) if flags[6] else 1.0
     for i in range(nn):
         g = gb[i]
         if A[i] > 0.0:
@@ -808,6 +904,11 @@ def _rhs(
                 hr = hrad[i]
             if ftype[i] == 1:
                 h = h_mixed(hn, h_rotating_shaft(n, D[i]))
+            elif ftype[i] == 3:  # pulley: rim as a rotating cylinder, faces as rotating disks
+                hf = par[12] * h_rotating_shaft(n, D[i]) + (1.0 - par[12]) * h_rotating_disk(
+                    n, par[13]
+                )
+                h = h_mixed(hn, hf)
             elif ftype[i] == 2:
                 h = h_mixed(hn, h_moving_surface(par[4] * n, par[5]))
             else:
@@ -821,6 +922,8 @@ def _rhs(
         a = ei[e]
         b = ej[e]
         q = eg[e] * (x[b] - x[a])
+        if eann[e]:
+            q *= f_gap
         out[a] += q
         out[b] -= q
     if n > 0.0:
@@ -848,8 +951,8 @@ def _rhs(
 
 @nb.njit(cache=True)
 def _simulate(
-    x0, U, dt, nsub, C, ei, ej, eg, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar, qbelt,
-    ipul, rtd, tau, flags, par, y, xs, keep,
+    x0, U, dt, nsub, C, ei, ej, eg, eann, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar,
+    qbelt, ipul, rtd, tau, flags, par, y, xs, keep,
 ):  # pragma: no cover - numba  # fmt: skip
     B, T = U.shape[0], U.shape[1]
     n_x = x0.shape[1]
@@ -875,35 +978,35 @@ def _simulate(
             n = U[b, k, 0]
             Ta = U[b, k, 1]
             for _ in range(nsub):
-                _rhs(x, n, Ta, C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad, ftype,
-                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k1, rec,
-                     False)  # fmt: skip
+                _rhs(x, n, Ta, C[b], ei, ej, eg[b], eann, A[b], gb[b], D, eps, hnat, hrad,
+                     ftype, bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k1,
+                     rec, False)  # fmt: skip
                 for i in range(n_x):
                     tmp[i] = x[i] + 0.5 * h * k1[i]
-                _rhs(tmp, n, Ta, C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad, ftype,
-                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k2, rec,
-                     False)  # fmt: skip
+                _rhs(tmp, n, Ta, C[b], ei, ej, eg[b], eann, A[b], gb[b], D, eps, hnat, hrad,
+                     ftype, bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k2,
+                     rec, False)  # fmt: skip
                 for i in range(n_x):
                     tmp[i] = x[i] + 0.5 * h * k2[i]
-                _rhs(tmp, n, Ta, C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad, ftype,
-                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k3, rec,
-                     False)  # fmt: skip
+                _rhs(tmp, n, Ta, C[b], ei, ej, eg[b], eann, A[b], gb[b], D, eps, hnat, hrad,
+                     ftype, bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k3,
+                     rec, False)  # fmt: skip
                 for i in range(n_x):
                     tmp[i] = x[i] + h * k3[i]
-                _rhs(tmp, n, Ta, C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad, ftype,
-                     bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k4, rec,
-                     False)  # fmt: skip
+                _rhs(tmp, n, Ta, C[b], ei, ej, eg[b], eann, A[b], gb[b], D, eps, hnat, hrad,
+                     ftype, bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, k4,
+                     rec, False)  # fmt: skip
                 for i in range(n_x):
                     x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 @nb.njit(cache=True)
 def _flows(
-    X, U, C, ei, ej, eg, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar, qbelt, ipul, rtd,
-    tau, flags, par, rec, dxdt,
+    X, U, C, ei, ej, eg, eann, A, gb, D, eps, hnat, hrad, ftype, bir, bor, bpar, qbelt, ipul,
+    rtd, tau, flags, par, rec, dxdt,
 ):  # pragma: no cover - numba  # fmt: skip
     for b in range(X.shape[0]):
-        _rhs(X[b], U[b, 0], U[b, 1], C[b], ei, ej, eg[b], A[b], gb[b], D, eps, hnat, hrad,
+        _rhs(X[b], U[b, 0], U[b, 1], C[b], ei, ej, eg[b], eann, A[b], gb[b], D, eps, hnat, hrad,
              ftype, bir, bor, bpar[b], qbelt[b], ipul, rtd, tau[b], flags, par, dxdt[b], rec[b],
              True)  # fmt: skip
 

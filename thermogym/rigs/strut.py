@@ -23,10 +23,21 @@ the step tests the axis moves periodically over a 0.6 m stroke at constant
 feed rate ``v`` [m/min]; the screw turns at ``n = v / lead`` (1000 rpm at
 20 m/min). The period of a stroke (seconds) is far below every thermal time
 constant, so every moving contact (nut on the screw, screw inside the push
-tube, push tube in the guide bushing) is averaged over the stroke. The stand
-has no cover: between the bearing housing and the carriage (guided by the
-stand's rails) the screw turns in the open air; ahead of the nut it runs
-inside the push tube, where 30 % of its air exchange remains.
+tube, push tube in the guide bushing) is averaged over the stroke.
+
+The screw runs enclosed, as 000 section 4 describes the strut ("the tube moves
+around the spindle"): ahead of the nut inside the push tube (Ø90 mm bore),
+behind it inside a round bellows (Ø90/110 mm, coated fabric) between the
+bearing housing and the carriage, the usual protection of a machine-tool ball
+screw against chips and contact. Its heat reaches the air across the air of
+that annulus (conduction, free convection and radiation at rest; Taylor
+vortices while it turns) and then through the push tube or the bellows. The
+paper's own estimate of the screw's air exchange is free convection and
+radiation, its uncertainty stated "+30/−20 % without forced convection"
+(appendix): a screw turning in the open air at 1000-1500 rpm would exchange
+6-8× its still-air value (Kays & Bjorklund's rotating cylinder), outside that
+bound. (An earlier version of this rig had such an open stand; see
+``benchmarks/results/rigs/strut_spindle.md``.)
 
 Heat sources (linear in ``v`` like the paper's estimate ``Q_i = k_i v``, eq 13,
 except where the table says otherwise): motor 40 W at 20 m/min (75 % copper,
@@ -48,11 +59,19 @@ switch. The rows are :data:`EXTRAS`.
     by finite volumes; 60 + 60 segments (the model: 5 screw and 3 tube nodes).
     Switch ``conduction_1d`` (off: 5 and 3 segments); ``n_screw=``, ``n_tube=``.
 ``forced_convection``
-    Rotating screw, ``Nu = 0.133 Re_ω^(2/3) Pr^(1/3)`` (Kays & Bjorklund);
-    push tube moving along itself, laminar flat plate
-    ``Nu = 0.664 Re^(1/2) Pr^(1/3)`` (Incropera eq 7.30); each mixed with free
-    convection (n = 3). The screw's air exchange is 6.3× its still-air value
-    at 20 m/min, 8.1× at 30; the tube's +2 % at 20 m/min, +4 % at 30. Switch ``forced_convection``.
+    The screw turning in its annulus (push tube ahead of the nut, bellows
+    behind it): Taylor-Couette convection, ``Nu = 0.409 Ta^0.241``
+    (Becker & Kaye 1962, the air-gap correlation of electrical machines;
+    ``Ta = ω² r_m δ³/ν²`` = 2.2·10⁷ at 1000 rpm), its excess over conduction
+    mixed (n = 3) with the annulus' free convection (Raithby & Hollands,
+    Incropera eq 9.58); the push tube moving along itself, laminar flat plate
+    ``Nu = 0.664 Re^(1/2) Pr^(1/3)`` over the stroke, where its boundary layer
+    restarts (Incropera eq 7.30), mixed with free convection (n = 3). The
+    annulus conducts 0.65 W/(m K) at rest (conduction 0.20 × 2.19 free
+    convection, radiation 0.20), 2.65 at 20 m/min (×4.1), 3.18 at 30 (×4.9);
+    the screw's exchange with the air through the bellows grows 2.7× (20
+    m/min), the tube's outside +6 % (20 m/min), +10 % (30). Switch
+    ``forced_convection`` (off: the annulus and the tube at rest).
 ``copper_resistance``
     The copper loss follows the winding resistance, α_Cu = 3.93e-3 1/K
     (IEC 60028): +0.39 % of the 30 W copper loss per kelvin of winding rise.
@@ -67,8 +86,9 @@ switch. The rows are :data:`EXTRAS`.
     screw or the tube. Switch ``heat_partition`` (off: all into the nut,
     bearing and bushing nodes, as the model assumes).
 ``stroke_contacts``
-    Nut ↔ screw, screw ↔ push tube (enclosed air and radiation, 0.5 W/(m K))
-    and tube ↔ bushing contacts averaged over the 0.6 m stroke. Switch
+    Nut ↔ screw, screw ↔ push tube (across the annulus), tube ↔ bushing
+    contacts and the screw's length under the bellows averaged over the 0.6 m
+    stroke. Switch
     ``stroke_contacts`` (off: every contact at the stroke's mean position).
 ``thermocouple_lag``
     Sheathed thermocouples in blind holes with paste, τ = 30 s (× the
@@ -145,11 +165,14 @@ from thermogym._jitcache import cache_depends_on
 from thermogym.errors import ConfigError, ShapeError, UnknownNameError
 from thermogym.rigs import _convection
 from thermogym.rigs._convection import (
+    g_annulus_conduction,
+    g_annulus_radiation,
     h_free_cylinder,
     h_mixed,
     h_moving_surface,
     h_radiation,
-    h_rotating_shaft,
+    k_ratio_free_annulus,
+    k_ratio_rotating_annulus,
 )
 from thermogym.rigs._machine import Links, ratio_parameters, segment_weights
 from thermogym.rigs.base import (
@@ -211,12 +234,15 @@ EXTRAS: tuple[ExtraPhysics, ...] = (
     ),
     ExtraPhysics(
         "forced_convection",
-        "convection of the rotating screw and of the push tube moving through the air",
-        "rotating shaft Nu = 0.133 Re_ω^(2/3) Pr^(1/3) (Kays & Bjorklund 1958); flat plate "
-        "Nu = 0.664 Re^(1/2) Pr^(1/3) (Incropera eq 7.30); mixed with free convection, n = 3 "
-        "(Incropera eq 9.64)",
-        "screw air exchange ×6.3 at 20 m/min, ×8.1 at 30 (vs still air); tube +2 %, +4 %",
-        "free convection and radiation only",
+        "convection of the screw turning in its enclosed annulus (push tube, bellows) and of "
+        "the push tube moving through the air",
+        "annulus with a rotating inner cylinder Nu = 0.409 Ta^0.241 (Becker & Kaye 1962; "
+        "Staton et al. 2005), free convection in the annulus (Raithby & Hollands, Incropera "
+        "eq 9.58); flat plate over the stroke Nu = 0.664 Re^(1/2) Pr^(1/3) (Incropera eq 7.30); "
+        "mixed with free convection, n = 3 (Incropera eq 9.64)",
+        "annulus 0.65 W/(m K) at rest, ×4.1 at 20 m/min, ×4.9 at 30; the screw's exchange "
+        "with the air through the bellows ×2.7 at 20 m/min; the tube's outside +6 %, +10 %",
+        "the annulus and the tube at rest (conduction, free convection, radiation)",
     ),
     ExtraPhysics(
         "copper_resistance",
@@ -244,7 +270,8 @@ EXTRAS: tuple[ExtraPhysics, ...] = (
         "contacts of moving parts averaged over the stroke",
         "periodic motion over 0.6 m at constant speed: the stroke period (seconds) is far "
         "below every thermal time constant",
-        "nut ↔ screw over 0.7 m, screw ↔ push tube (enclosed air, 0.5 W/(m K)), tube ↔ bushing",
+        "nut ↔ screw over 0.7 m, screw ↔ push tube across the annulus, tube ↔ bushing, the "
+        "screw's length under the bellows",
         "every contact at the stroke's mean position",
     ),
     ExtraPhysics(
@@ -335,7 +362,12 @@ _AIR = {
     "carriage": (0.05, 0.11, 0.3),
     "bushing": (0.04, 0.15, 0.9),
 }
-_EPS_SCREW, _EPS_TUBE = 0.3, 0.8
+_EPS_TUBE = 0.8  # painted push tube
+_EPS_SCREW, _EPS_TUBE_IN = 0.3, 0.5  # ground screw; the tube's drawn, oxidised bore
+#: the bellows over the screw between the bearing housing and the carriage
+_COVER_D, _EPS_COVER = 0.11, 0.9  # m (outer), coated fabric
+_HOUSING_FACE = 0.12  # m: the screw leaves the bearing housing
+_R_SCREW, _R_BORE = 0.5 * _D_SCREW, 0.5 * _D_TUBE_IN  # the annulus around the screw
 #: joints between lumped nodes [W/K] and whether they are rolling contacts
 _JOINTS = (
     ("winding", "drive", 8.0),
@@ -355,8 +387,13 @@ _G_PULLEY_SCREW = 3.0  # W/K, clamping hub
 _G_BALLS_BEARING, _G_BALLS_NUT = 2.0, 3.0  # W/K, rolling contacts
 _G_CARRIAGE_TUBE = 10.0  # W/K, bolted
 _G_BUSHING_TUBE = 1.5  # W/K, sliding contact
-_G_SCREW_TUBE = 0.5  # W/(m K): enclosed air and radiation, screw inside the push tube
-_TUBE_ENCLOSED = 0.3  # share of a screw segment's air exchange left while inside the tube
+#: the annulus around the screw (inside the push tube or the bellows) at rest [W/(m K)]:
+#: conduction × free convection (Raithby & Hollands at the design rise) + radiation
+_G_ANN_COND = g_annulus_conduction(_R_SCREW, _R_BORE)
+_KR_FREE = float(k_ratio_free_annulus(_DT_DESIGN, _R_SCREW, _R_BORE))
+_G_ANN_RAD = g_annulus_radiation(_R_SCREW, _R_BORE, _EPS_SCREW, _EPS_TUBE_IN)
+_G_ANN_STILL = _KR_FREE * _G_ANN_COND + _G_ANN_RAD
+_N_HI = 3000.0  # rpm (60 m/min): speed of the integrator's rate bound
 _PALMGREN = (2 * 2.0, 55.0, 4.0, 40.0, 100.0)  # f0 bearings (×2), d_m, f0 nut, d_m, ν [mm²/s]
 
 
@@ -364,6 +401,24 @@ def _palmgren_watts(f0: float, dm_mm: float, n_rpm: float, nu: float) -> float:
     """Viscous friction power of Palmgren's M_0 at ``n_rpm`` [W] (M_0 in N mm)."""
     m0 = 1e-7 * f0 * (nu * n_rpm) ** (2.0 / 3.0) * dm_mm**3 if nu * n_rpm >= 2000 else 0.0
     return m0 * 1e-3 * n_rpm * 2 * math.pi / 60.0
+
+
+@nb.njit(cache=True, inline="always")
+def _g_annulus(n_rpm, forced, r_i, r_o, kr_free, g_cond, g_rad):  # pragma: no cover - numba
+    # the annulus around the screw per metre [W/(m K)]: its free and its rotating (Taylor-
+    # Couette) convection combined as Churchill's n = 3 on their excess over conduction,
+    # plus radiation
+    kr = kr_free
+    if forced and n_rpm > 0.0:
+        a = kr_free - 1.0
+        b = k_ratio_rotating_annulus(n_rpm, r_i, r_o) - 1.0
+        kr = 1.0 + (a * a * a + b * b * b) ** (1.0 / 3.0)
+    return kr * g_cond + g_rad
+
+
+def _g_annulus_np(n_rpm: float, forced: bool) -> float:
+    """The annulus around the screw per metre at ``n_rpm`` [W/(m K)] (see the kernel)."""
+    return float(_g_annulus(n_rpm, forced, _R_SCREW, _R_BORE, _KR_FREE, _G_ANN_COND, _G_ANN_RAD))
 
 
 def _stroke_positions(stroke_contacts: bool) -> NDArray[np.float64]:
@@ -381,12 +436,14 @@ class _Arrays:
     ei: NDArray[np.int64]
     ej: NDArray[np.int64]
     eg: NDArray[np.float64]  # (B, E)
-    A: NDArray[np.float64]  # (B, nn) exposed area × factor
+    eann: NDArray[np.int64]  # (E,) 1: across the annulus around the screw (grows with speed)
+    A: NDArray[np.float64]  # (B, nn) exposed area × factor; screw: length under the bellows
+    A2: NDArray[np.float64]  # (B, nn) screw segments: bellows' outer area × factor
     D: NDArray[np.float64]  # (nn,)
     eps: NDArray[np.float64]
     hnat: NDArray[np.float64]  # (nn,) linearised free convection
     hrad: NDArray[np.float64]  # (nn,) linearised radiation
-    ftype: NDArray[np.int64]  # (nn,) 0 none, 1 rotating screw, 2 push tube
+    ftype: NDArray[np.int64]  # (nn,) 0 none, 1 screw under the bellows, 2 push tube
     xf: NDArray[np.float64]  # (nn,) fan air speed per motor rpm [m/s per rpm]
     qlin: NDArray[np.float64]  # (B, nn) W per m/min
     qcu: NDArray[np.float64]
@@ -557,30 +614,38 @@ class StrutPlant(TruePlant):
         # the bushing; the carriage rides with the tube's rear end
         pos = _stroke_positions(ph["stroke_contacts"])
         w_nut = np.zeros(Ns)
-        inside = np.zeros(Ns)  # share of time each screw segment is inside the push tube
+        covered = np.zeros(Ns)  # length of each screw segment under the bellows [m]
         g_st = np.zeros((Ns, Nt))
         w_bush = np.zeros(Nt)
         for xn in pos:
             w_nut += segment_weights(xs_e, xn - _L_NUT / 2, xn + _L_NUT / 2)
             rear = xn + _TUBE_REAR_OFFSET
             ins = np.clip((xs_e[1:] - np.maximum(xs_e[:-1], xn + _L_NUT / 2)) / dxs, 0.0, 1.0)
-            inside += ins
+            lo, hi = np.maximum(xs_e[:-1], _HOUSING_FACE), np.minimum(xs_e[1:], xn - _L_NUT / 2)
+            covered += np.maximum(hi - lo, 0.0)
             j = np.clip(((xs_c - rear) / dxt).astype(int), 0, Nt - 1)
             for m in np.flatnonzero(ins > 0).tolist():
-                g_st[m, j[m]] += _G_SCREW_TUBE * dxs * ins[m]
+                g_st[m, j[m]] += _G_ANN_STILL * dxs * ins[m]
             w_bush += segment_weights(ts_e, _BUSHING_X - rear - 0.02, _BUSHING_X - rear + 0.02)
         w_nut /= len(pos)
-        inside /= len(pos)
+        covered /= len(pos)
         g_st /= len(pos)
         w_bush /= len(pos)
         L.spread(_IX["nut"], S0, w_nut, _G_BALLS_NUT * sp["g_contact"])
+        annulus = set()
         for i, j in zip(*np.nonzero(g_st), strict=True):
-            L.add(S0 + int(i), T0 + int(j), g_st[i, j])
+            L.add(S0 + int(i), T0 + int(j), g_st[i, j] * sp["g_air_screw"])
+            annulus.add((S0 + int(i), T0 + int(j)))
         L.spread(_IX["carriage"], T0, segment_weights(ts_e, 0.0, 0.06), _G_CARRIAGE_TUBE)
         L.spread(_IX["bushing"], T0, w_bush, _G_BUSHING_TUBE)
         ei, ej, eg = L.arrays()
+        eann = np.array(
+            [int((a, b) in annulus) for a, b in zip(ei.tolist(), ej.tolist(), strict=True)],
+            dtype=np.int64,
+        )
         # air exchange
         A = np.zeros((B, nn))
+        A2 = np.zeros((B, nn))
         D = np.ones(nn)
         eps = np.zeros(nn)
         ftype = np.zeros(nn, dtype=np.int64)
@@ -591,13 +656,15 @@ class StrutPlant(TruePlant):
         if md is not None:
             A[:, _IX["bracket"]] = float(md.get("g_air", 0.5)) / 10.0  # ~10 W/(m² K)
             D[_IX["bracket"]], eps[_IX["bracket"]] = 0.2, 0.9
-        expo = 1.0 - (1.0 - _TUBE_ENCLOSED) * inside
-        A[:, S0:T0] = (math.pi * _D_SCREW * dxs * expo)[None] * sp["g_air_screw"][:, None]
-        D[S0:T0], eps[S0:T0] = _D_SCREW, _EPS_SCREW
+        # the screw behind the nut: the annulus to the bellows in series with the bellows'
+        # free convection and radiation (D, eps of these nodes are the bellows')
+        A[:, S0:T0] = covered[None] * sp["g_air_screw"][:, None]
+        A2[:, S0:T0] = (math.pi * _COVER_D * covered)[None] * sp["g_air_other"][:, None]
+        D[S0:T0], eps[S0:T0] = _COVER_D, _EPS_COVER
+        ftype[S0:T0] = 1
         A[:, T0:] = math.pi * _D_TUBE * dxt * sp["g_air_tube"][:, None]
         D[T0:], eps[T0:] = _D_TUBE, _EPS_TUBE
         if ph["forced_convection"]:
-            ftype[S0:T0] = 1
             ftype[T0:] = 2
         # the drive motor's shaft fan (concealed input-dependent heat transfer)
         fan = cc.get("input_dependent_heat_transfer")
@@ -661,13 +728,20 @@ class StrutPlant(TruePlant):
         )
         wL[T0:] = dxt
         # fastest rate (Gershgorin): conductances + air at the largest forced convection
-        tot = L.totals(nn)
-        h_hi = 160.0 if ph["forced_convection"] else 30.0
-        rho = np.max((tot + A * h_hi) / C, axis=1)
+        # (the annulus at _N_HI, the air at 30 W/(m² K), more than any surface here sees)
+        f_hi = _g_annulus_np(_N_HI, ph["forced_convection"]) / _G_ANN_STILL
+        tot = np.zeros((B, nn))
+        for e, (a, b) in enumerate(zip(ei.tolist(), ej.tolist(), strict=True)):
+            g = eg[:, e] * (f_hi if eann[e] else 1.0)
+            tot[:, a] += g
+            tot[:, b] += g
+        g_air_hi = A * 30.0
+        g_air_hi[:, S0:T0] = A[:, S0:T0] * _G_ANN_STILL * f_hi
+        rho = np.max((tot + g_air_hi) / C, axis=1)
         if ph["thermocouple_lag"]:
             rho = np.maximum(rho, 1.0 / tau.min(axis=1))
         return _Arrays(
-            C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
+            C, ei, ej, eg, eann, A, A2, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
             tca, tcb, tcw, tau, wL, rho,
         )  # fmt: skip
 
@@ -681,6 +755,7 @@ class StrutPlant(TruePlant):
                 int("time_varying_parameter" in cc),
                 int(self.physics["copper_resistance"]),
                 int(self.physics["thermocouple_lag"]),
+                int(self.physics["forced_convection"]),
             ],
             dtype=np.int64,
         )
@@ -688,7 +763,20 @@ class StrutPlant(TruePlant):
     def _par(self) -> NDArray[np.float64]:
         tv = self.concealed.get("time_varying_parameter", {})
         return np.array(
-            [_D_SCREW, _L_TUBE, _LEAD, _ALPHA_CU, float(tv.get("per_km", 0.04)), _N_REF, _L_MOTOR]
+            [
+                _D_SCREW,
+                _STROKE[1] - _STROKE[0],  # the push tube's boundary layer restarts each stroke
+                _LEAD,
+                _ALPHA_CU,
+                float(tv.get("per_km", 0.04)),
+                _N_REF,
+                _L_MOTOR,
+                _R_SCREW,
+                _R_BORE,
+                _KR_FREE,
+                _G_ANN_COND,
+                _G_ANN_RAD,
+            ]
         )
 
     # ------------------------------------------------------------------ contract
@@ -815,7 +903,8 @@ class StrutPlant(TruePlant):
         dict
             ``source`` (B, n_nodes) heat generated in each node [W]; ``g_air``
             (B, n_nodes) its conductance to the air [W/K]; ``generated`` and
-            ``to_air`` (B,) their totals [W]; ``stored`` (B,) ``Σ C dT/dt`` [W].
+            ``to_air`` (B,) their totals [W]; ``stored`` (B,) ``Σ C dT/dt`` [W];
+            ``dTdt`` (B, n_nodes) each node's rate [K/s].
         """
         arr = self.arrays(specimens)
         B, nn = specimens.n, self.n_nodes
@@ -824,9 +913,10 @@ class StrutPlant(TruePlant):
         rec = np.zeros((B, 2, nn))
         dxdt = np.zeros((B, self.n_states))
         _flows(
-            X, U, arr.C, arr.ei, arr.ej, arr.eg, arr.A, arr.D, arr.eps, arr.hnat, arr.hrad,
-            arr.ftype, arr.xf, arr.qlin, arr.qcu, arr.qwear, arr.qvisc, arr.tca, arr.tcb, arr.tcw,
-            arr.tctau, _IX["winding"] if self.physics["winding_node"] else _IX["drive"],
+            X, U, arr.C, arr.ei, arr.ej, arr.eg, arr.eann, arr.A, arr.A2, arr.D, arr.eps,
+            arr.hnat, arr.hrad, arr.ftype, arr.xf, arr.qlin, arr.qcu, arr.qwear, arr.qvisc,
+            arr.tca, arr.tcb, arr.tcw, arr.tctau,
+            _IX["winding"] if self.physics["winding_node"] else _IX["drive"],
             self._flags(), self._par(), rec, dxdt,
         )  # fmt: skip
         to_air = np.sum(rec[:, 1] * (X[:, :nn] - U[:, 1:2]), axis=1)
@@ -836,6 +926,7 @@ class StrutPlant(TruePlant):
             "generated": rec[:, 0].sum(axis=1),
             "to_air": to_air,
             "stored": np.sum(arr.C * dxdt[:, :nn], axis=1),
+            "dTdt": dxdt[:, :nn].copy(),
         }
 
     def _simulate(
@@ -869,8 +960,9 @@ class StrutPlant(TruePlant):
         nsub = max(1, math.ceil(dt * float(arr.rho.max())))
         _simulate(
             np.ascontiguousarray(x), np.ascontiguousarray(U), float(dt), nsub,
-            arr.C, arr.ei, arr.ej, arr.eg, arr.A, arr.D, arr.eps, arr.hnat, arr.hrad, arr.ftype,
-            arr.xf, arr.qlin, arr.qcu, arr.qwear, arr.qvisc, arr.tca, arr.tcb, arr.tcw, arr.tctau,
+            arr.C, arr.ei, arr.ej, arr.eg, arr.eann, arr.A, arr.A2, arr.D, arr.eps, arr.hnat,
+            arr.hrad, arr.ftype, arr.xf, arr.qlin, arr.qcu, arr.qwear, arr.qvisc, arr.tca,
+            arr.tcb, arr.tcw, arr.tctau,
             arr.wL, _IX["winding"] if self.physics["winding_node"] else _IX["drive"],
             self._flags(), self._par(), y, xs, keep,
         )  # fmt: skip
@@ -879,15 +971,17 @@ class StrutPlant(TruePlant):
 # ------------------------------------------------------------------ compiled kernel
 @nb.njit(cache=True)
 def _rhs(
-    x, v, Ta, C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
-    tca, tcb, tcw, tctau, iw, flags, par, out, rec, record,
+    x, v, Ta, C, ei, ej, eg, eann, A, A2, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear,
+    qvisc, tca, tcb, tcw, tctau, iw, flags, par, out, rec, record,
 ):  # pragma: no cover - numba  # fmt: skip
     # dx/dt into out; with record, each node's heat source [W] and air conductance [W/K]
     # into rec[0], rec[1]
     nn = C.shape[0]
     nl, fan, visc, tv, cu, tc = flags[0], flags[1], flags[2], flags[3], flags[4], flags[5]
+    forced = flags[6]
     n_rpm = abs(v) / par[2]
-    h_rot = h_rotating_shaft(n_rpm, par[0])
+    g_ann = _g_annulus(n_rpm, forced, par[7], par[8], par[9], par[10], par[11])
+    f_ann = g_ann / (par[9] * par[10] + par[11])  # the annulus' links, over their still value
     h_ax = h_moving_surface(abs(v) / 60.0, par[1])
     f_cu = 1.0 + par[3] * (x[iw] - 20.0) if cu else 1.0
     f_wear = 1.0 + par[4] * x[x.shape[0] - 1] if tv else 1.0
@@ -896,7 +990,15 @@ def _rhs(
     for i in range(nn):
         s = qlin[i] * av + qcu[i] * av * f_cu + qwear[i] * av * f_wear + qvisc[i] * f_visc
         g = 0.0
-        if A[i] > 0.0:
+        if ftype[i] == 1 and A[i] > 0.0:
+            # screw under the bellows: the annulus in series with the bellows' outside
+            ga = A[i] * g_ann
+            gc = A2[i] * (hnat[i] + hrad[i])
+            if nl:  # the bellows' own rise above the air sets its free convection
+                dc = (Ta - x[i]) * ga / (ga + gc)
+                gc = A2[i] * (h_free_cylinder(dc, D[i]) + h_radiation(Ta - dc, Ta, eps[i]))
+            g = ga * gc / (ga + gc)
+        elif A[i] > 0.0:
             d = Ta - x[i]
             if nl:
                 hn = h_free_cylinder(d, D[i])
@@ -905,9 +1007,7 @@ def _rhs(
                 hn = hnat[i]
                 hr = hrad[i]
             hf = 0.0
-            if ftype[i] == 1:
-                hf = h_rot
-            elif ftype[i] == 2:
+            if ftype[i] == 2:
                 hf = h_ax
             if fan and xf[i] > 0.0:
                 hf = h_mixed(hf, h_moving_surface(xf[i] * n_rpm, par[6]))
@@ -921,6 +1021,8 @@ def _rhs(
         a = ei[e]
         b = ej[e]
         q = eg[e] * (x[b] - x[a])
+        if eann[e]:
+            q *= f_ann
         out[a] += q
         out[b] -= q
     for i in range(nn):
@@ -933,8 +1035,8 @@ def _rhs(
 
 @nb.njit(cache=True)
 def _simulate(
-    x0, U, dt, nsub, C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
-    tca, tcb, tcw, tctau, wL, iw, flags, par, y, xs, keep,
+    x0, U, dt, nsub, C, ei, ej, eg, eann, A, A2, D, eps, hnat, hrad, ftype, xf, qlin, qcu,
+    qwear, qvisc, tca, tcb, tcw, tctau, wL, iw, flags, par, y, xs, keep,
 ):  # pragma: no cover - numba  # fmt: skip
     B, T = U.shape[0], U.shape[1]
     n = x0.shape[1]
@@ -967,38 +1069,38 @@ def _simulate(
             v = U[b, k, 0]
             Ta = U[b, k, 1]
             for _ in range(nsub):
-                _rhs(x, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
-                     qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
-                     par, k1, rec, False)  # fmt: skip
+                _rhs(x, v, Ta, C[b], ei, ej, eg[b], eann, A[b], A2[b], D, eps, hnat, hrad,
+                     ftype, xf, qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b],
+                     iw, flags, par, k1, rec, False)  # fmt: skip
                 for i in range(n):
                     tmp[i] = x[i] + 0.5 * h * k1[i]
-                _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
-                     qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
-                     par, k2, rec, False)  # fmt: skip
+                _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], eann, A[b], A2[b], D, eps, hnat, hrad,
+                     ftype, xf, qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b],
+                     iw, flags, par, k2, rec, False)  # fmt: skip
                 for i in range(n):
                     tmp[i] = x[i] + 0.5 * h * k2[i]
-                _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
-                     qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
-                     par, k3, rec, False)  # fmt: skip
+                _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], eann, A[b], A2[b], D, eps, hnat, hrad,
+                     ftype, xf, qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b],
+                     iw, flags, par, k3, rec, False)  # fmt: skip
                 for i in range(n):
                     tmp[i] = x[i] + h * k3[i]
-                _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
-                     qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags,
-                     par, k4, rec, False)  # fmt: skip
+                _rhs(tmp, v, Ta, C[b], ei, ej, eg[b], eann, A[b], A2[b], D, eps, hnat, hrad,
+                     ftype, xf, qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b],
+                     iw, flags, par, k4, rec, False)  # fmt: skip
                 for i in range(n):
                     x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
 
 
 @nb.njit(cache=True)
 def _flows(
-    X, U, C, ei, ej, eg, A, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
+    X, U, C, ei, ej, eg, eann, A, A2, D, eps, hnat, hrad, ftype, xf, qlin, qcu, qwear, qvisc,
     tca, tcb, tcw, tctau, iw, flags, par, rec, dxdt,
 ):  # pragma: no cover - numba  # fmt: skip
     # per specimen: node sources and air conductances (rec), and dx/dt
     for b in range(X.shape[0]):
-        _rhs(X[b], U[b, 0], U[b, 1], C[b], ei, ej, eg[b], A[b], D, eps, hnat, hrad, ftype, xf,
-             qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw, flags, par,
-             dxdt[b], rec[b], True)  # fmt: skip
+        _rhs(X[b], U[b, 0], U[b, 1], C[b], ei, ej, eg[b], eann, A[b], A2[b], D, eps, hnat,
+             hrad, ftype, xf, qlin[b], qcu[b], qwear[b], qvisc[b], tca, tcb, tcw, tctau[b], iw,
+             flags, par, dxdt[b], rec[b], True)  # fmt: skip
 
 
 cache_depends_on(_rhs, _convection)

@@ -17,8 +17,9 @@ Both are trained on the 20 m/min step test and validated unchanged at 25 and
 
 The data come from the strut rig (:mod:`thermogym.rigs.strut`), a plant written
 apart from the model: 1-D conduction along the screw and the push tube, the
-rotating screw's forced convection (its steady temperatures grow much less
-than the feed rate, the nonlinearity the paper names), motor losses that grow
+forced convection of the screw turning in its enclosed annulus and of the
+moving tube (the screw, nut and tube warm less than in proportion to the feed
+rate, a nonlinearity of the kind the paper names), motor losses that grow
 with the winding temperature, one strut drawn from the appendix's uncertainty
 of the physical estimates. :func:`rig_fidelity` measures the paper's
 validation gap on it beside its noise ceiling and the nominal model. The 8
