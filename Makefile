@@ -77,7 +77,7 @@ BENCH_OUT ?= $(OUT)/bench
 
 # Each benchmark prints its ratio against a named peer and writes its figures as JSON.
 bench: $(STAMP_ALL)
-	@for b in simulate n4sid global_fit strut_study axt211_greybox env_throughput year firmware virtual_sensor; do \
+	@for b in simulate n4sid global_fit strut_study axt211_greybox env_throughput year firmware virtual_sensor bad_input; do \
 		[ -f benchmarks/$$b.py ] || continue; \
 		echo "== benchmarks/$$b.py"; $(PY) benchmarks/$$b.py --json $(BENCH_OUT)/$$b.json || exit 1; \
 	done

@@ -72,7 +72,8 @@ def test_a_failing_stage_is_reported_and_the_others_run(tmp_path):
     assert not list(tmp_path.glob(".staging-*"))
     assert "boom in the middle" in (tmp_path / "logs" / "b.txt").read_text()
     man = json.loads((tmp_path / "manifest.json").read_text())["stages"]
-    assert man["b"] == {"status": "failed", "files": []}
+    assert {k: man["b"][k] for k in ("status", "files")} == {"status": "failed", "files": []}
+    assert man["b"]["ran_at"]
     assert man["a"]["files"] == ["figures/a.png"]
 
 

@@ -25,9 +25,11 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "thermogym"
 
 #: Modules every part may import: errors, value checks, the vocabulary, numba's cache
-#: keys, atomic file writing and the package's version. Only ``errors`` among them is
+#: keys, atomic file writing, CSV dialects and the package's version. Only ``errors`` among them is
 #: imported by the others.
-FOUNDATION = frozenset({"thermogym", "errors", "_checks", "vocabulary", "_jitcache", "_fileio"})
+FOUNDATION = frozenset(
+    {"thermogym", "errors", "_checks", "vocabulary", "_jitcache", "_fileio", "_csvdialect"}
+)
 
 #: Shared data contracts and figures: every part above the models may use them.
 DATA = frozenset({"recording", "fitresult", "datasets", "plotting"})

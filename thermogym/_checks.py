@@ -42,7 +42,24 @@ __all__ = [
     "probability",
     "shape",
     "show",
+    "with_unit",
 ]
+
+
+#: Units that mean "dimensionless": shown as no unit at all (never "2 1").
+DIMENSIONLESS = frozenset({"", "1", "-"})
+
+
+def with_unit(text: str, unit: str | None) -> str:
+    """``text`` followed by its unit after a space; nothing for a dimensionless unit.
+
+    Examples
+    --------
+    >>> with_unit("2", "1"), with_unit("30", "K")
+    ('2', '30 K')
+    """
+    u = (unit or "").strip()
+    return text if u in DIMENSIONLESS else f"{text} {u}"
 
 
 def show(value: Any, unit: str = "") -> str:
@@ -54,11 +71,12 @@ def show(value: Any, unit: str = "") -> str:
     '30.0 K'
     >>> show("abc")
     "'abc'"
+    >>> show(2.0, "1")
+    '2.0'
     """
     if isinstance(value, np.generic):
         value = value.item()
-    text = repr(value)
-    return f"{text} {unit}" if unit else text
+    return with_unit(repr(value), unit)
 
 
 def _number(

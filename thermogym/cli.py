@@ -1,20 +1,37 @@
 """The ``thermogym`` command line.
 
 Each sub-command lives in its own module under :mod:`thermogym._cli`, which
-provides ``add_parser(subparsers)`` and ``run(args) -> int``; modules are
+provides ``add_arguments(parser)`` and ``run(args) -> int``; modules are
 imported only when their command runs, so ``thermogym --help`` stays fast.
-Errors thermogym raises on purpose are printed as one line and exit with
-status 2; nothing else imports this module.
+Nothing else imports this module.
+
+Exit status and messages (the same for every command):
+
+* ``0`` success; ``1`` the command ran but reports a failure (a demo stage,
+  a firmware budget) or an internal error (printed on one line, a bug: set
+  ``THERMOGYM_TRACEBACK=1`` to see where);
+* ``2`` bad input: an option, a file, a value. One line on stderr,
+  ``thermogym COMMAND: error: ...``, naming the offending option, column or
+  value; nothing is written;
+* ``130`` interrupted (Ctrl-C): nothing is written over an existing file; a
+  best-so-far result, when kept, goes to a new name that the message gives.
+
+The shared machinery (typed options, the output guard, interruption) is in
+:mod:`thermogym._cli.common`.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
+import warnings
 from collections.abc import Sequence
+from typing import Any
 
 from thermogym import __version__
+from thermogym._cli.common import CliParser, Interrupted, UsageError, one_line
 from thermogym.errors import ThermogymError
 
 #: command -> (module, one-line help)
@@ -33,14 +50,13 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command."""
-    parser = argparse.ArgumentParser(
+    parser = CliParser(
         prog="thermogym",
         description="Identified thermal plants as Gymnasium environments: rigs, "
         "identification, diagnosis, control benchmarks.",
     )
     parser.add_argument("--version", action="version", version=f"thermogym {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    sub.required = True
     for name, (module, help_text) in COMMANDS.items():
         try:
             mod = importlib.import_module(module)
@@ -54,20 +70,71 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> argparse.Namespace:
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        prog = f"thermogym {args.command}" if getattr(args, "command", None) else "thermogym"
+        raise UsageError(
+            f"unrecognized argument(s) {' '.join(extra)} (see {prog} --help)", prog=prog
+        )
+    if getattr(args, "command", None) is None:
+        raise UsageError(
+            f"no command given; commands are {', '.join(COMMANDS)} (see thermogym --help)"
+        )
+    return args
+
+
+def _warn_one_line(message: Any, category: Any, *rest: Any, **kw: Any) -> None:
+    print(f"thermogym: warning: {one_line(str(message))}", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; return the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    try:
-        return int(importlib.import_module(args._module).run(args) or 0)
-    except ThermogymError as e:
-        print(f"thermogym {args.command}: error: {e}", file=sys.stderr)
-        return 2
-    except BrokenPipeError:  # output piped into e.g. `head`
-        return 0
-    except KeyboardInterrupt:
-        print(f"thermogym {args.command}: interrupted", file=sys.stderr)
-        return 130
+    """Run the command line; return the exit status (never raises for bad input)."""
+    prog = "thermogym"
+    with warnings.catch_warnings():
+        warnings.showwarning = _warn_one_line
+        try:
+            parser = build_parser()
+            args = _parse(parser, argv)
+            prog = f"thermogym {args.command}"
+            return int(importlib.import_module(args._module).run(args) or 0)
+        except UsageError as e:
+            print(f"{e.prog}: error: {one_line(str(e))}", file=sys.stderr)
+            return 2
+        except ThermogymError as e:
+            print(f"{prog}: error: {one_line(str(e))}", file=sys.stderr)
+            return 2
+        except SystemExit as e:  # --help, --version
+            code = e.code
+            return code if isinstance(code, int) else (0 if code is None else 2)
+        except Interrupted as e:
+            print(f"{prog}: interrupted: {one_line(str(e))}", file=sys.stderr)
+            return 130
+        except KeyboardInterrupt:
+            print(
+                f"{prog}: interrupted; nothing was written over an existing file", file=sys.stderr
+            )
+            return 130
+        except BrokenPipeError:  # output piped into e.g. `head`
+            try:
+                sys.stdout = open(os.devnull, "w")
+            except OSError:  # pragma: no cover
+                pass
+            return 0
+        except OSError as e:  # a file the user named: missing, not readable, disk full
+            where = f" {e.filename!r}" if getattr(e, "filename", None) else ""
+            print(f"{prog}: error: cannot use{where}: {e.strerror or e}", file=sys.stderr)
+            return 2
+        except Exception as e:
+            if os.environ.get("THERMOGYM_TRACEBACK"):
+                raise
+            print(
+                f"{prog}: internal error ({type(e).__name__}: {one_line(str(e), 300)}); this "
+                "is a bug in thermogym, please report it with the command line "
+                "(THERMOGYM_TRACEBACK=1 shows where)",
+                file=sys.stderr,
+            )
+            return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -49,6 +49,16 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._csvdialect import (
+    CSV_DELIMITERS,
+    TIME_NAMES,
+    csv_parse_hint,
+    find_time_column,
+    head_lines,
+    leading_comments,
+    sniff_csv,
+    timestamp_seconds,
+)
 from thermogym._fileio import atomic_write_many, to_jsonable
 from thermogym.errors import RecordingError, ThermogymError, UnitError, UnknownNameError
 
@@ -56,12 +66,15 @@ if TYPE_CHECKING:
     from thermogym.models.base import Model, Simulation
 
 __all__ = [
+    "CSV_DELIMITERS",
     "CSV_SUFFIXES",
     "PARQUET_SUFFIXES",
     "ROLES",
+    "TIME_NAMES",
     "Recording",
     "read_recording",
     "sidecar_path",
+    "sniff_csv",
     "write_recording",
 ]
 
@@ -109,6 +122,12 @@ def _fmt_names(names: Iterable[str]) -> str:
 
 
 def _check_name(name: Any) -> str:
+    if name == "":
+        raise RecordingError(
+            "column name '' is not an identifier: a column has an empty name (a delimiter at "
+            "the end of the header line?); expected letters, digits and _ (the model signal "
+            "names)"
+        )
     if not isinstance(name, str) or not _NAME_RE.match(name):
         raise RecordingError(
             f"column name {name!r} is not an identifier; expected letters, digits and _ "
@@ -453,12 +472,16 @@ class Recording:
         mean = (self._time[-1] - self._time[0]) / (self.n_samples - 1)
         if not self.is_uniform():
             d = np.diff(self._time)
-            i = _first_true(np.abs(d - d[0]) > 1e-6 * mean)
+            i = int(np.argmax(np.abs(d - mean)))
+            spread = float(np.max(np.abs(d - mean)) / mean)
             raise RecordingError(
-                "the recording is not uniformly sampled: steps range from "
-                f"{float(d.min())!r} s to {float(d.max())!r} s (mean {float(mean)!r} s), the "
-                f"first step unlike the first is time[{i + 1}] - time[{i}] = {float(d[i])!r} s; "
-                "resample it first (thermogym.identification)"
+                f"recording{self._label()} is not uniformly sampled: its time steps range from "
+                f"{float(d.min()):.6g} s to {float(d.max()):.6g} s around a mean of "
+                f"{float(mean):.6g} s ({100 * spread:.3g} % off at most, the step of "
+                f"{float(d[i]):.6g} s from time {float(self._time[i]):.6g} s to "
+                f"{float(self._time[i + 1]):.6g} s); resample it "
+                "onto a uniform grid first (thermogym.identification.prepare.resample, or "
+                "--prepare dt=SECONDS on the command line)"
             )
         return float(mean)
 
@@ -1215,9 +1238,14 @@ def _arrow_column(name: str, col: pa.ChunkedArray, where: str, line0: int | None
         notnull = np.asarray(pd.notna(values))
         i = _first_true(notnull) if notnull.any() else 0
     line = f" (line {i + line0})" if line0 is not None else ""
+    hint = (
+        "; a units row under the header? remove it (units go into the .meta.json sidecar)"
+        if i == 0 and line0 is not None
+        else ""
+    )
     raise RecordingError(
         f"{where}: column {name!r} holds a non-numeric value {_show(values[i])} at row {i}{line} "
-        f"(read as {t}); expected real numbers, an empty field for a missing sample"
+        f"(read as {t}); expected real numbers, an empty field for a missing sample{hint}"
     )
 
 
@@ -1273,14 +1301,16 @@ def _check_metadata_doc(doc: Any, where: str) -> dict[str, Any]:
 def read_recording(
     path: str | os.PathLike[str],
     *,
-    time: str = "time",
+    time: str | None = None,
     columns: Sequence[str] | None = None,
     units: Mapping[str, str] | None = None,
     roles: Mapping[str, str] | None = None,
     experiment_id: str | None = None,
     source: str | None = None,
     meta: Mapping[str, Any] | None = None,
-    delimiter: str = ",",
+    delimiter: str | None = None,
+    decimal: str | None = None,
+    notes: list[str] | None = None,
 ) -> Recording:
     """Read a recording from CSV or Parquet.
 
@@ -1289,8 +1319,11 @@ def read_recording(
     path : str or path-like
         ``.csv``, ``.csv.gz`` or ``.parquet``; a CSV's metadata are read from
         ``<path>.meta.json`` when it exists.
-    time : str
-        Name of the time column [s] in the file; it becomes ``time``.
+    time : str, optional
+        Name of the time column [s] in the file; it becomes ``time``. By
+        default ``time``, else the one column called ``Time``, ``t``,
+        ``time_s``, ... (:data:`TIME_NAMES`, any case). A date-time column
+        becomes seconds from its first sample.
     columns : sequence of str, optional
         Columns to keep (others, e.g. text columns, are not converted); all
         when omitted.
@@ -1301,8 +1334,14 @@ def read_recording(
         Override the stored values.
     meta : mapping, optional
         Merged over the stored ``meta``.
-    delimiter : str
-        CSV field separator.
+    delimiter : str, optional
+        CSV field separator; detected when unambiguous (:func:`sniff_csv`),
+        else ``,``.
+    decimal : str, optional
+        CSV decimal mark, ``.`` or ``,``; a decimal comma is detected.
+    notes : list, optional
+        Receives what was detected (delimiter, decimal mark, time column), in
+        words, for the caller to show.
 
     Returns
     -------
@@ -1327,15 +1366,32 @@ def read_recording(
     fmt = _file_format(path)
     if path.stat().st_size == 0:
         raise RecordingError(f"recording file {where} is empty (0 bytes)")
+    found: list[str] = []
+    if fmt == "csv":
+        delimiter, decimal, found = sniff_csv(path, delimiter=delimiter, decimal=decimal)
+    skip = 0
+    if fmt == "csv":
+        skip = leading_comments(head_lines(path, 200))
+        if skip:
+            found.append(f"skipped {skip} comment line(s) (# ...) before the header")
     try:
         if fmt == "csv":
-            table = pa_csv.read_csv(
-                str(path),
-                parse_options=pa_csv.ParseOptions(delimiter=delimiter),
-                convert_options=pa_csv.ConvertOptions(strings_can_be_null=True),
-            )
+            try:
+                table = pa_csv.read_csv(
+                    str(path),
+                    read_options=pa_csv.ReadOptions(skip_rows=skip),
+                    parse_options=pa_csv.ParseOptions(delimiter=delimiter),
+                    convert_options=pa_csv.ConvertOptions(
+                        strings_can_be_null=True, decimal_point=decimal or "."
+                    ),
+                )
+            except pa.ArrowInvalid as e:
+                raise RecordingError(
+                    f"cannot read CSV file {where} ({str(e).splitlines()[0]}); "
+                    + csv_parse_hint(path, delimiter or ",", decimal or ".")
+                ) from e
             stored = _read_sidecar(path)
-            line0: int | None = 2
+            line0: int | None = 2 + skip
         else:
             table = pq.read_table(str(path))
             raw = (table.schema.metadata or {}).get(_META_KEY.encode())
@@ -1362,10 +1418,14 @@ def read_recording(
             f"the metadata of {where} describe columns {stored['columns']}, but the file has "
             f"{names}; the sidecar belongs to another file: fix or delete it"
         )
-    if time not in names:
+    if len(names) == 1 and fmt == "csv":
         raise RecordingError(
-            f"{where} has no time column {time!r}; its columns are {names} (pass time=...)"
+            f"{where} reads as a single column {names[0][:60]!r}: "
+            + csv_parse_hint(path, delimiter or ",", decimal or ".")
         )
+    time, time_note = find_time_column(names, time, where)
+    if time_note:
+        found.append(time_note)
     if table.num_rows == 0:
         raise RecordingError(f"{where} has a header but no samples")
     rest = [n for n in names if n != time]
@@ -1374,7 +1434,14 @@ def read_recording(
         if missing:
             raise RecordingError(f"{where} lacks column(s) {missing}; its columns are {rest}")
         rest = list(columns)
-    t = _arrow_column(time, table.column(time), where, line0)
+    tcol = table.column(time)
+    if pa.types.is_timestamp(tcol.type) or pa.types.is_date(tcol.type):
+        t = timestamp_seconds(tcol)
+        found.append(f"converted the date-times of column {time!r} to seconds from the first")
+    else:
+        t = _arrow_column(time, tcol, where, line0)
+    if notes is not None:
+        notes.extend(found)
     items = [(n, _arrow_column(n, table.column(n), where, line0)) for n in rest]
     for key in ("units", "roles"):  # keep the labels of the columns taken
         labels = stored.get(key) or {}

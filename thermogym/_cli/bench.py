@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any
 
+from thermogym._cli.common import plan_outputs, whole
 from thermogym.errors import ConfigError
 
 #: Scenario run when none is named.
@@ -36,11 +38,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="onoff,pwm,pid,mpc",
         help="comma list of presets and groups (default: onoff,pwm,pid,mpc; see --list)",
     )
-    p.add_argument("--seeds", type=int, default=3, help="number of seeds, 0..N-1 (default 3)")
+    p.add_argument(
+        "--seeds",
+        type=whole(1, 10_000, what="a number of seeds"),
+        default=3,
+        help="number of seeds, 0..N-1 (default 3)",
+    )
     p.add_argument("--seed-list", help="explicit comma list of seeds (overrides --seeds)")
-    p.add_argument("--out", help="output folder of the report")
+    p.add_argument("--out", help="output folder of the report (created)")
     p.add_argument("--backend", choices=["local", "ray", "serial"], default="local")
-    p.add_argument("--workers", type=int, help="parallel episodes (default: CPU count)")
+    p.add_argument(
+        "--workers",
+        type=whole(1, 1024, what="a number of workers"),
+        help="parallel episodes (default: CPU count)",
+    )
     p.add_argument(
         "--plant",
         default="model",
@@ -103,6 +114,12 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--out is required: the folder of the report")
     from thermogym.controllers.harness import run_benchmark
 
+    policies = [item.partition("=")[2].strip() for item in args.policy]
+    plan = plan_outputs(args, folders=("out",), inputs=("params",), extra_inputs=policies)
+    for path in [args.params, *policies]:
+        if path and not Path(path).is_file():
+            raise ConfigError(f"{path!r} does not exist (--params/--policy name a file)")
+
     env_id = _env_id(args.env)
     name = env_id.split("/")[1].split("-v")[0]
     scenarios: list[str] = []
@@ -114,6 +131,8 @@ def run(args: argparse.Namespace) -> int:
             seeds = [int(x) for x in args.seed_list.split(",") if x.strip()]
         except ValueError:
             raise ConfigError(f"--seed-list {args.seed_list!r}: expected integers") from None
+        if not seeds or any(x < 0 for x in seeds):
+            raise ConfigError(f"--seed-list {args.seed_list!r}: expected integers >= 0")
     options: dict[str, dict[str, Any]] = {}
     for item in args.policy:
         algo, sep, path = item.partition("=")
@@ -121,21 +140,25 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"--policy {item!r}: expected ALGO=PATH (e.g. ppo=policy.zip)")
         options[algo.strip()] = {"policy": path.strip()}
     plants = [p.strip() for p in args.plant.split(",") if p.strip()]
-    res = run_benchmark(
-        env_id,
-        scenarios,
-        args.controllers,
-        seeds,
-        args.out,
-        args.backend,
-        plants=plants,
-        workers=args.workers,
-        options=options,
-        record=args.record,
-        progress=False if args.no_progress else None,
-        title=args.title,
-        params=args.params,
-    )
+    bad = [p for p in plants if p not in ("model", "rig")]
+    if bad or not plants:
+        raise ConfigError(f"--plant {args.plant!r}: expected model, rig or model,rig")
+    with plan:
+        res = run_benchmark(
+            env_id,
+            scenarios,
+            args.controllers,
+            seeds,
+            plan.path("--out"),
+            args.backend,
+            plants=plants,
+            workers=args.workers,
+            options=options,
+            record=args.record,
+            progress=False if args.no_progress else None,
+            title=args.title,
+            params=args.params,
+        )
     from thermogym.controllers.tables import kpi_axes
 
     axes = list(kpi_axes(list(res.table.columns)).values())
@@ -143,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
     print(mean.to_string(float_format=lambda v: f"{v:.4g}"))
     print(
         f"{len(res.table)} episodes in {res.seconds:.1f} s ({res.backend}, {res.workers} workers); "
-        f"report: {res.files.get('summary.md')}",
+        f"report: {Path(args.out) / 'summary.md'}",
         file=sys.stderr,
     )
     return 0

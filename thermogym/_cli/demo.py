@@ -8,6 +8,10 @@ files; exit status 1 when a stage failed (the report says which and why).
 from __future__ import annotations
 
 import argparse
+import sys
+
+from thermogym._cli.common import plan_outputs, whole
+from thermogym.errors import ConfigError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -15,7 +19,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from thermogym.demo import stage_keys
 
     p.add_argument("--out", default="out", help="output folder (default: out)")
-    p.add_argument("--seed", type=int, default=0, help="seed of every random draw (default 0)")
+    p.add_argument(
+        "--seed",
+        type=whole(0, 2**32 - 1, what="a seed"),
+        default=0,
+        help="seed of every random draw (default 0)",
+    )
     p.add_argument(
         "--quick", action="store_true", help="smaller experiments and grids (about a minute)"
     )
@@ -30,9 +39,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the demo; exit status 1 when a stage failed."""
+    """Run the demo; exit status 1 when a stage failed, 2 when none could run."""
     from thermogym.demo import run_demo
 
+    plan_outputs(args, folders=("out",), unstaged=("out",))  # the demo stages its own files
     results = run_demo(
         args.out,
         quick=args.quick,
@@ -40,4 +50,21 @@ def run(args: argparse.Namespace) -> int:
         only=args.only,
         progress=not args.no_progress,
     )
-    return 1 if any(r.status == "failed" for r in results) else 0
+    if args.no_progress:  # the progress lines said it otherwise
+        status = ", ".join(f"{r.key} {r.status}" for r in results)
+        print(f"report: {args.out}/report.html (and report.md); stages: {status}")
+    if results and all(r.status == "skipped" for r in results):
+        first = results[0]
+        raise ConfigError(
+            f"no stage ran: {first.key!r} was skipped, {first.error}; run the stages it needs "
+            f"first (thermogym demo --out {args.out}, or add --only for them)"
+        )
+    failed = [r.key for r in results if r.status == "failed"]
+    if failed:
+        print(
+            f"thermogym demo: stage(s) {failed} failed; see {args.out}/report.html and "
+            f"{args.out}/logs/",
+            file=sys.stderr,
+        )
+        return 1
+    return 0

@@ -17,9 +17,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from thermogym.errors import ConfigError, RecordingError
-
-_SUFFIXES = (".csv", ".csv.gz", ".parquet", ".pq")
+from thermogym._cli.common import plan_outputs, positive, probability
+from thermogym._cli.data import add_data_options, load_recordings
+from thermogym.errors import ConfigError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -53,17 +53,31 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--inputs", help="generic models: exogenous columns, comma-separated")
     p.add_argument("--outputs", help="output columns to compare, comma-separated")
     p.add_argument("--candidates", help="effects to consider, comma-separated (default: all)")
-    p.add_argument("--dt", type=float, help="average the recordings onto this period [s] first")
-    p.add_argument("--alpha", type=float, default=0.01, help="test level (default 0.01)")
+    p.add_argument(
+        "--dt",
+        type=positive("s", "a sample period"),
+        help="average the recordings onto this period [s] first",
+    )
+    p.add_argument(
+        "--alpha",
+        type=probability(),
+        default=0.01,
+        help="test level in (0, 1) (default 0.01)",
+    )
     p.add_argument(
         "--scheme",
         choices=("auto", "split", "crossfit"),
         default="auto",
         help="how hypotheses are scored on held-out data (default auto)",
     )
-    p.add_argument("--time-limit", type=float, help="start no hypothesis after this many seconds")
+    p.add_argument(
+        "--time-limit",
+        type=positive("s", "a time limit"),
+        help="start no hypothesis after this many seconds",
+    )
     p.add_argument("--no-sparse", action="store_true", help="skip the sparse-regression fallback")
     p.add_argument("--quiet", action="store_true", help="print only the verdict")
+    add_data_options(p)
 
 
 def _split(text: str | None) -> list[str] | None:
@@ -75,38 +89,22 @@ def _split(text: str | None) -> list[str] | None:
     return items
 
 
-def load_data(items: list[str], what: str) -> list:
-    """Recordings from files, folders and ``dataset:NAME`` items."""
-    from thermogym.recording import read_recording
-
-    recs = []
-    for item in items:
-        if item.startswith("dataset:"):
-            from thermogym.datasets import load
-
-            recs.append(load(item.split(":", 1)[1]))
-            continue
-        path = Path(item)
-        if path.is_dir():
-            files = sorted(
-                f for f in path.iterdir() if f.is_file() and f.name.lower().endswith(_SUFFIXES)
-            )
-            if not files:
-                raise RecordingError(f"{what} folder {item!r} holds no CSV or Parquet recording")
-            recs.extend(read_recording(f) for f in files)
-        elif path.exists():
-            recs.append(read_recording(path))
-        else:
-            raise RecordingError(f"{what} recording {item!r} does not exist")
-    return recs
+def load_data(items: list[str], what: str, args: argparse.Namespace | None = None) -> list:
+    """Recordings from files, folders and ``dataset:NAME`` items (:mod:`thermogym._cli.data`)."""
+    return load_recordings(items, what, args)
 
 
 def run(args: argparse.Namespace) -> int:
     """Diagnose and write the reports."""
     from thermogym.identification.diagnosis import diagnose
 
-    train = load_data(args.train, "training")
-    val = load_data(args.validate, "validation")
+    plan = plan_outputs(
+        args,
+        files={"out": "json", "html": "html", "md": "md", "augmented_fit": "json"},
+        inputs=("train", "validate", "params"),
+    )
+    train = load_data(args.train, "training", args)
+    val = load_data(args.validate, "validation", args)
     say = (lambda s: None) if args.quiet else (lambda s: print(f"  {s}", flush=True))
     rep = diagnose(
         args.model,
@@ -123,20 +121,24 @@ def run(args: argparse.Namespace) -> int:
         sparse=not args.no_sparse,
         progress=say,
     )
-    rep.save(args.out)
+    with plan:
+        rep.save(plan.path("--out"))
+        if args.html:
+            rep.save_html(plan.path("--html"))
+        if args.md:
+            stem = Path(args.md).stem
+            rep.save_markdown(plan.path("--md"), figures_dir=f"{stem}_figures")
+        if args.augmented_fit and rep.augmented_fit is not None:
+            rep.augmented_fit.save(plan.path("--augmented-fit"))
     print(rep.verdict)
     print(f"report: {args.out}")
     if args.html:
-        rep.save_html(args.html)
         print(f"html:   {args.html}")
     if args.md:
-        stem = Path(args.md).stem
-        rep.save_markdown(args.md, figures_dir=f"{stem}_figures")
         print(f"md:     {args.md}")
     if args.augmented_fit:
         if rep.augmented_fit is None:
             print("no augmented model: nothing written to --augmented-fit")
         else:
-            rep.augmented_fit.save(args.augmented_fit)
             print(f"fit:    {args.augmented_fit}")
     return 0

@@ -18,6 +18,10 @@ from __future__ import annotations
 import argparse
 import json
 
+import numpy as np
+
+from thermogym._cli.common import plan_outputs, positive, whole
+from thermogym._cli.data import add_data_options, load_recordings
 from thermogym.errors import ConfigError
 
 
@@ -28,15 +32,29 @@ def _common(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--hidden", default=None, metavar="NAMES", help="outputs to estimate")
     p.add_argument("--reference", default=None, metavar="NAME", help="e.g. T_amb for relative data")
-    p.add_argument("--measurement-std", type=float, default=0.05, help="sensor noise std")
-    p.add_argument("--process-std", type=float, default=1e-3, help="process noise (no K)")
+    p.add_argument(
+        "--measurement-std",
+        type=positive(what="a noise standard deviation"),
+        default=0.05,
+        help="sensor noise std",
+    )
+    p.add_argument(
+        "--process-std",
+        type=positive(what="a noise standard deviation"),
+        default=1e-3,
+        help="process noise (no K)",
+    )
     p.add_argument("--disturbance", default="", metavar="NAMES", help="random-walk input states")
     p.add_argument("--target", default="atmega328p", help="microcontroller (default atmega328p)")
     p.add_argument(
-        "--flash-budget", type=int, help="bytes of flash the observer may use (default: all free)"
+        "--flash-budget",
+        type=whole(1, what="a number of bytes"),
+        help="bytes of flash the observer may use (default: all free)",
     )
     p.add_argument(
-        "--ram-budget", type=int, help="bytes of static RAM the observer may use (default 1536)"
+        "--ram-budget",
+        type=whole(1, what="a number of bytes"),
+        help="bytes of static RAM the observer may use (default 1536)",
     )
     p.add_argument(
         "--range",
@@ -54,7 +72,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     e = sub.add_parser("export", help="write vs_model.h and the C sources into a folder")
     _common(e)
     e.add_argument("--out", required=True, help="folder to create")
-    e.add_argument("--vectors", metavar="DATA", help="recording for C-versus-Python test vectors")
+    e.add_argument(
+        "--vectors",
+        metavar="DATA",
+        help="recording (or dataset:NAME) for C-versus-Python test vectors",
+    )
+    add_data_options(e)
     e.add_argument(
         "--rest", action="append", default=[], metavar="NAME=VALUE", help="rest-state input"
     )
@@ -80,8 +103,8 @@ def _pairs(items: list[str]) -> dict[str, float]:
             out[k.strip()] = float(v)
         except ValueError:
             sep = ""
-        if not sep or not k.strip():
-            raise ConfigError(f"{item!r} is not of the form NAME=NUMBER")
+        if not sep or not k.strip() or not np.isfinite(out[k.strip()]):
+            raise ConfigError(f"{item!r} is not of the form NAME=NUMBER (a finite number)")
     return out
 
 
@@ -100,8 +123,11 @@ def _ranges(items: list[str]) -> dict[str, tuple[float, float]]:
             out[k.strip()] = (float(lo), float(hi))
         except ValueError:
             sep2 = ""
-        if not sep or not sep2:
+        if not sep or not sep2 or not k.strip():
             raise ConfigError(f"--range {item!r} is not of the form NAME=LO:HI")
+        a, b = out[k.strip()]
+        if not (np.isfinite(a) and np.isfinite(b) and a < b):
+            raise ConfigError(f"--range {item!r}: expected finite LO < HI")
     return out
 
 
@@ -131,11 +157,18 @@ def run(args: argparse.Namespace) -> int:
         fp = firmware_model(sensor.observer_matrices()).footprint(tgt)
         print(json.dumps(fp.as_dict(), indent=2))
         return 0 if fp.fits else 1
+    plan = plan_outputs(
+        args, folders=("out",), inputs=("fit", "vectors"), unstaged=("out",)
+    )  # export() stages its folder itself
+    out_dir = plan.path("--out")
+    if out_dir.is_dir() and any(out_dir.iterdir()) and not args.overwrite:
+        raise ConfigError(
+            f"--out {args.out!r} exists and is not empty; pass --overwrite to replace its files"
+        )
+    offsets, scales, rest = _pairs(args.offset), _pairs(args.scale), _rest_pairs(args.rest)
     vectors = None
     if args.vectors:
-        from thermogym.recording import read_recording
-
-        vectors = read_recording(args.vectors)
+        (vectors,) = load_recordings([args.vectors], "--vectors", args)
     rep = export(
         args.fit,
         args.out,
@@ -143,10 +176,10 @@ def run(args: argparse.Namespace) -> int:
         target=args.target,
         flash_budget=args.flash_budget,
         ram_budget=args.ram_budget,
-        offsets=_pairs(args.offset) or None,
-        scales=_pairs(args.scale) or None,
+        offsets=offsets or None,
+        scales=scales or None,
         vectors=vectors,
-        rest=_rest_pairs(args.rest) or None,
+        rest=rest or None,
         check_avr=False if args.no_avr_check else None,
         overwrite=args.overwrite,
     )

@@ -15,18 +15,33 @@ The problem set-up follows paper 000 (workflow steps 2-7): free parameters
 with bounds and start values (``--free NAME=LO:HI[:START]``), values set
 manually (``--fix``), ratio parameters (``--ratio``), signal pairs with weights
 (``--pair``), the method and its stop criteria. Ctrl-C ends the search and
-still writes the best result found.
+writes the best result found so far to a new name (``FIT.interrupted.json``,
+never over ``--out``) and exits with status 130.
 """
 
 from __future__ import annotations
 
 import argparse
 import inspect
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
+from thermogym._cli.common import (
+    CliParser,
+    Interrupted,
+    plan_outputs,
+    positive,
+    probability,
+    whole,
+)
+from thermogym._cli.data import (
+    add_data_options,
+    add_prepare_option,
+    hoist_recordings,
+    load_recordings,
+    parse_prepare,
+)
 from thermogym.errors import ConfigError, UnknownNameError
 
 _METHODS = ("greybox", "montecarlo", "anneal", "evolution", "cmaes")
@@ -47,7 +62,7 @@ _METHOD_OPTIONS: dict[str, tuple[str, tuple[str, ...]]] = {
 
 def build_parser(method: str) -> argparse.ArgumentParser:
     """Parser of ``thermogym identify METHOD``."""
-    p = argparse.ArgumentParser(
+    p = CliParser(
         prog=f"thermogym identify {method}",
         description=__doc__.splitlines()[0] if __doc__ else None,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -55,8 +70,12 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--model", help="registered thermogym model (thermogym models)")
     src.add_argument("--external", type=Path, help="TOML/YAML configuration of an external model")
-    p.add_argument("data", nargs="+", type=Path, help="recordings (CSV/Parquet) or folders of them")
+    p.add_argument(
+        "data", nargs="+", help="recordings: CSV/Parquet files, folders of them, dataset:NAME"
+    )
     p.add_argument("--out", type=Path, required=True, help="FitResult JSON to write")
+    add_prepare_option(p)
+    add_data_options(p)
     p.add_argument("--effects", nargs="*", default=[], help="physical effects of --model")
     p.add_argument(
         "--free",
@@ -93,23 +112,42 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     )
     p.add_argument("--objective", choices=("rmse", "mse"), default="rmse")
     stop = p.add_argument_group("stop criteria (any one ends the run)")
-    stop.add_argument("--max-iter", type=int)
-    stop.add_argument("--max-evals", type=int)
-    stop.add_argument("--time-limit", type=float, metavar="SECONDS")
-    stop.add_argument("--target", type=float, help="quality limit on the criterion")
+    stop.add_argument("--max-iter", type=whole(1, what="a number of iterations"))
+    stop.add_argument("--max-evals", type=whole(1, what="a number of evaluations"))
+    stop.add_argument("--time-limit", type=positive("s", "a time limit"), metavar="SECONDS")
+    stop.add_argument(
+        "--target", type=positive(what="a criterion value"), help="quality limit on the criterion"
+    )
     m = p.add_argument_group("method options")
-    m.add_argument("--seed", type=int, default=0)
+    m.add_argument("--seed", type=whole(0, 2**32 - 1, what="a seed"), default=0)
     m.add_argument("--jac", choices=("auto", "fd", "exact"), help="greybox: Jacobian")
     m.add_argument("--diff", choices=("forward", "central"), help="greybox: finite differences")
     m.add_argument("--solver", choices=("trf", "dogbox", "lm"), help="greybox: scipy solver")
-    m.add_argument("--samples", type=int, help="montecarlo: parameter sets")
-    m.add_argument("--batch-size", type=int, help="montecarlo: sets per batch")
+    m.add_argument(
+        "--samples", type=whole(1, what="a number of parameter sets"), help="montecarlo: sets"
+    )
+    m.add_argument(
+        "--batch-size", type=whole(1, what="a batch size"), help="montecarlo: sets per batch"
+    )
     m.add_argument("--sampler", choices=("uniform", "sobol", "lhs"), help="montecarlo")
-    m.add_argument("--chains", type=int, help="anneal: chains per batch")
-    m.add_argument("--popsize", type=int, help="evolution/cmaes: population")
-    m.add_argument("--sigma0", type=float, help="cmaes: initial step (unit coordinates)")
+    m.add_argument(
+        "--chains", type=whole(1, what="a number of chains"), help="anneal: chains per batch"
+    )
+    m.add_argument(
+        "--popsize", type=whole(2, what="a population size"), help="evolution/cmaes: population"
+    )
+    m.add_argument(
+        "--sigma0",
+        type=positive(what="an initial step"),
+        help="cmaes: initial step (unit coordinates)",
+    )
     m.add_argument("--polish", action="store_true", help="refine a global result with greybox")
-    m.add_argument("--level", type=float, default=0.95, help="confidence level of the intervals")
+    m.add_argument(
+        "--level",
+        type=probability("a confidence level"),
+        default=0.95,
+        help="confidence level of the intervals",
+    )
     m.add_argument(
         "--input-noise",
         action="append",
@@ -125,43 +163,14 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         help="evaluation of non-batched external models: local processes (default; 'local' "
         "and 'process' are the same), in this process ('serial'), or a Ray cluster",
     )
-    ext.add_argument("--workers", type=int, help="parallel processes")
+    ext.add_argument("--workers", type=whole(1, what="a number of workers"), help="processes")
     out = p.add_argument_group("output")
-    out.add_argument("--validate", nargs="+", type=Path, default=[], help="validation recordings")
+    out.add_argument("--validate", nargs="+", default=[], help="validation recordings")
     out.add_argument("--history", type=Path, help="write the search history (JSON)")
     out.add_argument("--plot", type=Path, help="write a PNG of measured vs simulated signals")
     out.add_argument("--no-progress", action="store_true", help="no progress bar")
     out.add_argument("--no-overwrite", action="store_true", help="refuse to replace --out")
     return p
-
-
-def _recordings(paths: list[Path]) -> list[Any]:
-    from thermogym.recording import CSV_SUFFIXES, PARQUET_SUFFIXES, read_recording
-
-    files: list[Path] = []
-    for path in paths:
-        if path.is_dir():
-            manifest = path / "manifest.json"
-            if manifest.exists():
-                try:
-                    doc = json.loads(manifest.read_text(encoding="utf-8"))
-                    files += [path / e["file"] for e in doc["recordings"]]
-                except (ValueError, KeyError, TypeError) as e:
-                    raise ConfigError(f"cannot read {manifest}: {e}") from e
-            else:
-                found = sorted(
-                    f
-                    for f in path.iterdir()
-                    if any(f.name.endswith(s) for s in (*CSV_SUFFIXES, *PARQUET_SUFFIXES))
-                )
-                if not found:
-                    raise ConfigError(f"folder {str(path)!r} holds no CSV or Parquet recording")
-                files += found
-        else:
-            if not path.exists():
-                raise ConfigError(f"recording {str(path)!r} does not exist")
-            files.append(path)
-    return [read_recording(f) for f in files]
 
 
 def _number(text: str, what: str) -> float:
@@ -265,7 +274,21 @@ def main(method: str, argv: list[str]) -> int:
     """Run ``thermogym identify METHOD`` with the method's options ``argv``."""
     if method not in _METHODS:
         raise UnknownNameError(f"method {method!r} is not one of {list(_METHODS)}")
-    args = build_parser(method).parse_args(argv)
+    args = build_parser(method).parse_args(hoist_recordings(argv))
+    args.command = "identify"
+    prep = parse_prepare(args.prepare)
+    plan = plan_outputs(
+        args,
+        files={"out": "json", "history": "json", "plot": "figure"},
+        inputs=("data", "validate", "external"),
+    )
+    if args.no_overwrite:
+        plan.must_not_exist("--out")
+    with plan:
+        return _identify(method, args, prep, plan)
+
+
+def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> int:
     from thermogym.identification.coordinator import run_identification
     from thermogym.identification.problem import Problem
 
@@ -284,35 +307,43 @@ def main(method: str, argv: list[str]) -> int:
         raise ConfigError("--effects applies to --model, not to --external")
     if args.external is None and (args.backend or args.workers):
         raise ConfigError("--backend/--workers apply to --external models")
+    free = _free_specs(args.free, args.log) or None
+    if free is None and args.log:
+        raise ConfigError("--log needs the parameters given with --free")
+    pairs, ratios, fixed = _pairs(args.pair), _ratios(args.ratio), _fixed(args.fix)
+    recs = load_recordings(args.data, "training", args, prepare=prep)
+    validation = (
+        load_recordings(args.validate, "validation", args, prepare=prep) if args.validate else None
+    )
     if args.external is not None:
         model = _external(args)
     else:
         from thermogym.models.registry import get_model
 
         model = get_model(args.model, **({"effects": list(args.effects)} if args.effects else {}))
-    recs = _recordings(args.data)
-    free = _free_specs(args.free, args.log) or None
-    if free is None and args.log:
-        raise ConfigError("--log needs the parameters given with --free")
-    problem = Problem(
-        model,
-        recs,
-        pairs=_pairs(args.pair),
-        free=free,
-        ratios=_ratios(args.ratio),
-        fixed=_fixed(args.fix),
-        objective=args.objective,
-    )
-    noise: dict[str, float] = {}
-    for item in args.input_noise:
-        col, eq, sigma = item.partition("=")
-        if eq:
-            noise[col.strip()] = _number(sigma, f"noise of {col.strip()!r}")
-        else:
-            from thermogym.identification.uncertainty import estimate_input_noise
-
-            noise.update(estimate_input_noise(recs, [col.strip()]))
+        for rec in [*recs, *(validation or [])]:  # the model's units, before any work
+            rec.validate_for(model, outputs=[n for n in model.output_names if n in rec])
     try:
+        problem = Problem(
+            model,
+            recs,
+            pairs=pairs,
+            free=free,
+            ratios=ratios,
+            fixed=fixed,
+            objective=args.objective,
+        )
+        noise: dict[str, float] = {}
+        for item in args.input_noise:
+            col, eq, sigma = item.partition("=")
+            if eq:
+                noise[col.strip()] = _number(sigma, f"noise of {col.strip()!r}")
+                if not noise[col.strip()] > 0:
+                    raise ConfigError(f"--input-noise {item!r}: expected a noise sigma > 0")
+            else:
+                from thermogym.identification.uncertainty import estimate_input_noise
+
+                noise.update(estimate_input_noise(recs, [col.strip()]))
         result = run_identification(
             problem,
             method,
@@ -324,7 +355,7 @@ def main(method: str, argv: list[str]) -> int:
             progress=False if args.no_progress else None,
             level=args.level,
             polish=args.polish,
-            validation=_recordings(args.validate) if args.validate else None,
+            validation=validation,
             input_noise=noise or None,
             **options,
         )
@@ -332,13 +363,22 @@ def main(method: str, argv: list[str]) -> int:
         close = getattr(model, "close", None)
         if args.external is not None and callable(close):
             close()
-    path = result.fit.save(args.out, overwrite=not args.no_overwrite)
+    if result.stop_reason.startswith("interrupted"):
+        # Ctrl-C ended the search: --out (and every other output) stays as it was; the
+        # best parameters found so far go to a new name
+        saved = plan.write_partial("--out", lambda p: result.fit.save(p, overwrite=False))
+        raise Interrupted(
+            f"the search was stopped after {result.evaluations} evaluations; the best result "
+            f"so far is in {saved} (criterion {result.criterion:.6g}); --out {args.out} was "
+            "left unchanged"
+        )
+    result.fit.save(plan.path("--out"))
     if args.history is not None:
-        result.save_history(args.history)
+        result.save_history(plan.path("--history"))
     if args.plot is not None:
         from thermogym.identification.coordinator_plots import plot_fit
 
-        plot_fit(result, args.plot)
+        plot_fit(result, plan.path("--plot"))
     print(result.summary())
     if result.failed:
         top = sorted(result.failure_messages.items(), key=lambda kv: -kv[1])[:3]
@@ -347,5 +387,5 @@ def main(method: str, argv: list[str]) -> int:
             + "; ".join(f"{m} ({n}x)" for m, n in top),
             file=sys.stderr,
         )
-    print(f"wrote {path}")
+    print(f"wrote {args.out}")
     return 0

@@ -21,10 +21,17 @@ Any CSV/Parquet recording works with ``--inputs``/``--outputs`` naming its colum
 from __future__ import annotations
 
 import argparse
-import ast
 from pathlib import Path
 from typing import Any
 
+from thermogym._cli.common import CliParser, number, plan_outputs, seconds, whole
+from thermogym._cli.data import (
+    add_data_options,
+    add_prepare_option,
+    hoist_recordings,
+    load_recordings,
+    parse_prepare,
+)
 from thermogym.errors import ConfigError
 
 METHODS = ("foptd", "n4sid", "rls")
@@ -50,27 +57,9 @@ def _range(text: str) -> range:
     return range(lo, hi + 1)
 
 
-def _prepare_options(items: list[str] | None) -> dict[str, Any] | None:
-    if items is None:
-        return None
-    out: dict[str, Any] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.isidentifier():
-            raise ConfigError(f"--prepare {item!r} is not of the form KEY=VALUE")
-        try:
-            v = ast.literal_eval(value)
-        except (ValueError, SyntaxError):
-            v = value
-        if key == "valid_range" and isinstance(v, str) and ":" in v:
-            v = tuple(float(x) for x in v.split(":"))
-        out[key] = tuple(v) if isinstance(v, list) else v
-    return out
-
-
 def build_parser(method: str) -> argparse.ArgumentParser:
     """Options of ``thermogym identify METHOD``."""
-    p = argparse.ArgumentParser(
+    p = CliParser(
         prog=f"thermogym identify {method}",
         description={
             "foptd": "FOPTD transfer functions by least squares and delay search (000 section 4.1)",
@@ -79,20 +68,16 @@ def build_parser(method: str) -> argparse.ArgumentParser:
             "rls": "FOPTD parameters by recursive least squares with forgetting",
         }[method],
     )
-    p.add_argument("data", nargs="+", help="training recordings (CSV/Parquet)")
+    p.add_argument(
+        "data", nargs="+", help="training recordings: CSV/Parquet files, folders, dataset:NAME"
+    )
     p.add_argument("--validate", nargs="+", default=[], metavar="DATA", help="validation data")
     p.add_argument("--model", help="thermogym plant whose signal names to use (e.g. spindle)")
     p.add_argument("--inputs", help="exogenous columns, comma separated")
     p.add_argument("--outputs", help="output columns, comma separated")
     p.add_argument("--disturbances", help="which inputs are disturbances (default: roles)")
-    p.add_argument(
-        "--prepare",
-        nargs="*",
-        metavar="KEY=VALUE",
-        help="prepare raw data first (outliers, 1 Hz grid, gaps, alignment); options of "
-        "thermogym.identification.prepare.PrepareConfig, e.g. ambient=T_amb "
-        "valid_range=-50,300 dt=1",
-    )
+    add_prepare_option(p)
+    add_data_options(p)
     p.add_argument(
         "--operating-point",
         choices=("none", "initial", "mean"),
@@ -101,43 +86,43 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="FitResult JSON to write")
     p.add_argument("--plots", help="folder for figures")
     if method in ("foptd", "rls"):
-        p.add_argument("--max-delay-s", type=float, help="largest delay searched [s]")
+        p.add_argument(
+            "--max-delay-s",
+            type=seconds(what="a largest delay"),
+            help="largest delay searched [s]",
+        )
         p.add_argument("--criterion", choices=("simulation", "equation"), default="simulation")
     if method == "rls":
-        p.add_argument("--forgetting", type=float, default=0.999, help="λ (default 0.999)")
+        p.add_argument(
+            "--forgetting",
+            type=number(0.0, 1.0, lo_open=True, what="a forgetting factor"),
+            default=0.999,
+            help="λ in (0, 1] (default 0.999)",
+        )
         p.add_argument("--delays", help="delays [samples], one or one per output")
         p.add_argument("--from-fit", help="warm start from a foptd FitResult")
     if method == "n4sid":
         g = p.add_mutually_exclusive_group()
-        g.add_argument("--order", type=int, help="model order")
+        g.add_argument("--order", type=whole(1, 500, what="a model order"), help="model order")
         g.add_argument("--orders", default="1:10", help="candidate orders A:B (default 1:10)")
         p.add_argument(
             "--folds",
-            type=int,
+            type=whole(2, 100, what="a number of folds"),
             help="choose the order by k-fold cross-validation (recordings are dealt round "
             "robin into the folds; a single recording is cut into K parts)",
         )
         p.add_argument("--scheme", choices=("paper", "kfold"), default="paper")
-        p.add_argument("--horizon", type=int, help="block rows (default from the orders)")
+        p.add_argument(
+            "--horizon",
+            type=whole(1, 100_000, what="a number of block rows"),
+            help="block rows (default from the orders)",
+        )
         p.add_argument("--decimate", default="auto", help="factor or 'auto' (default)")
         p.add_argument("--weighting", choices=("moesp", "cva", "n4sid"), default="moesp")
         p.add_argument("--feedthrough", action="store_true", help="estimate D")
         p.add_argument("--x0", choices=("estimate", "zero"), default="estimate")
         p.add_argument("--no-noise-model", action="store_true", help="K = 0")
     return p
-
-
-def _load(paths: list[str], prep: dict[str, Any] | None) -> list[Any]:
-    from thermogym.identification.prepare import prepare
-    from thermogym.recording import read_recording
-
-    recs = []
-    for path in paths:
-        rec = read_recording(path)
-        if rec.experiment_id is None:
-            rec = rec.replace(experiment_id=Path(path).stem.split(".")[0])
-        recs.append(prepare(rec, **prep) if prep is not None else rec)
-    return recs
 
 
 def _signals(args: argparse.Namespace, rec: Any) -> tuple[list[str], list[str]]:
@@ -198,15 +183,48 @@ def main(method: str, argv: list[str]) -> int:
     """Run ``thermogym identify METHOD ARGS``."""
     if method not in METHODS:
         raise ConfigError(f"unknown linear method {method!r}; expected one of {METHODS}")
-    args = build_parser(method).parse_args(argv)
-    prep = _prepare_options(args.prepare)
-    train = _load(args.data, prep)
-    vals = _load(args.validate, prep)
+    args = build_parser(method).parse_args(hoist_recordings(argv))
+    args.command = "identify"
+    prep = parse_prepare(args.prepare)
+    _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
+    decimate_option(args)
+    plan = plan_outputs(
+        args,
+        files={"out": "json"},
+        folders=("plots",),
+        inputs=("data", "validate", "from_fit"),
+    )
+    with plan:
+        return _identify(method, args, prep, plan)
+
+
+def decimate_option(args: argparse.Namespace) -> None:
+    """Check ``--decimate`` (a whole number >= 1 or ``auto``) before any work starts."""
+    text = getattr(args, "decimate", "auto")
+    if text == "auto":
+        return
+    try:
+        args.decimate = int(text)
+    except ValueError:
+        raise ConfigError(f"--decimate {text!r}: expected a whole number or 'auto'") from None
+    if args.decimate < 1:
+        raise ConfigError(f"--decimate {text!r}: expected a whole number >= 1 or 'auto'")
+
+
+def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> int:
+    train = load_recordings(args.data, "training", args, prepare=prep)
+    vals = load_recordings(args.validate, "validation", args, prepare=prep)
     inputs, outputs = _signals(args, train[0])
     dist = _cols(args.disturbances)
-    plots = Path(args.plots) if args.plots else None
-    if plots:
-        plots.mkdir(parents=True, exist_ok=True)
+    max_delay = getattr(args, "max_delay_s", None)
+    if max_delay is not None:
+        span = min(r.duration for r in train)
+        if max_delay > span:
+            raise ConfigError(
+                f"--max-delay-s {max_delay:g} s is longer than the recording ({span:g} s); "
+                "expected a delay within it"
+            )
+    plots = plan.get("--plots")
     figures: list[Path] = []
     if method == "foptd":
         from thermogym.identification.foptd import fit_foptd
@@ -238,12 +256,12 @@ def main(method: str, argv: list[str]) -> int:
     else:
         fit = _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures)
     _report(fit)
-    fit.save(args.out)
+    fit.save(plan.path("--out"))
     if plots:
         figures += _plot_fits(fit, train, plots, "train")
         figures += _plot_fits(fit, vals, plots, "validation")
         for f in figures:
-            print(f"  figure: {f}")
+            print(f"  figure: {plan.final(f)}")
     print(f"wrote {args.out}")
     return 0
 
@@ -261,7 +279,20 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
         est = RecursiveFOPTD.from_fit(args.from_fit, forgetting=args.forgetting)
     else:
         if args.delays:
-            delays = [int(v) for v in args.delays.split(",")]
+            try:
+                delays = [int(v) for v in args.delays.split(",")]
+            except ValueError:
+                raise ConfigError(
+                    f"--delays {args.delays!r}: expected whole numbers of samples, comma-separated"
+                ) from None
+            if any(v < 0 for v in delays):
+                raise ConfigError(f"--delays {args.delays!r}: expected delays >= 0 samples")
+            n = min(r.n_samples for r in train)
+            if max(delays) >= n // 2:
+                raise ConfigError(
+                    f"--delays {args.delays!r}: a delay of {max(delays)} samples leaves too little "
+                    f"of a {n}-sample recording to fit; expected delays < {n // 2} samples"
+                )
             d = np.array(delays)[:, None] if len(delays) > 1 else delays[0]
         else:
             d = np.round(
@@ -307,13 +338,6 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     from thermogym.identification.n4sid import n4sid
 
     decimate: int | str = args.decimate
-    if decimate != "auto":
-        try:
-            decimate = int(decimate)
-        except ValueError:
-            raise ConfigError(
-                f"--decimate {args.decimate!r}: expected a whole number or 'auto'"
-            ) from None
     opm = args.operating_point or "none"
     common = {
         "disturbances": dist,

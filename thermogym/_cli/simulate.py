@@ -7,19 +7,26 @@ from pathlib import Path
 
 import numpy as np
 
+from thermogym._cli.common import plan_outputs
+from thermogym._cli.data import add_data_options, load_recordings
 from thermogym.errors import ConfigError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare the options."""
     p.add_argument("model", nargs="?", help="model name (optional with --params)")
-    p.add_argument("--inputs", required=True, help="recording (CSV/Parquet) with the inputs")
+    p.add_argument(
+        "--inputs",
+        required=True,
+        help="recording (CSV/Parquet, or dataset:NAME) with the inputs",
+    )
     p.add_argument("--out", required=True, help="recording to write (CSV/Parquet)")
     p.add_argument("--params", help="FitResult JSON: model and parameters")
     p.add_argument(
         "--set", action="append", default=[], metavar="NAME=VALUE", help="override a parameter"
     )
     p.add_argument("--plot", help="also write a PNG comparing simulation and recording")
+    add_data_options(p)
 
 
 def parse_sets(items: list[str]) -> dict[str, float]:
@@ -27,12 +34,15 @@ def parse_sets(items: list[str]) -> dict[str, float]:
     out = {}
     for item in items:
         name, sep, value = item.partition("=")
+        name = name.strip()
         try:
             out[name] = float(value)
         except ValueError:
             sep = ""
         if not sep or not name.isidentifier():
             raise ConfigError(f"--set {item!r} is not of the form NAME=NUMBER")
+        if not np.isfinite(out[name]):
+            raise ConfigError(f"--set {item!r}: the value is not a finite number")
     return out
 
 
@@ -40,8 +50,12 @@ def run(args: argparse.Namespace) -> int:
     """Simulate and write the result."""
     from thermogym.fitresult import load_fit
     from thermogym.models.registry import get_model
-    from thermogym.recording import Recording, read_recording, write_recording
+    from thermogym.recording import Recording, write_recording
 
+    plan = plan_outputs(
+        args, files={"out": "recording", "plot": "figure"}, inputs=("inputs", "params")
+    )
+    sets = parse_sets(args.set)
     linear = None
     if args.params:
         fit = load_fit(args.params)
@@ -58,15 +72,15 @@ def run(args: argparse.Namespace) -> int:
         theta = model.theta()
     else:
         raise ConfigError("name a MODEL or give --params fit.json")
-    if args.set:
-        theta = model.theta(theta, **parse_sets(args.set))
-    rec = read_recording(args.inputs)
+    if sets:
+        theta = model.theta(theta, **sets)
+    (rec,) = load_recordings([args.inputs], "--inputs", args)
     rec.validate_for(model, outputs=False)
     rec.check_values([s.name for s in model.exogenous])
     if linear is not None:
         from thermogym.identification.linear_fit import simulate_recording
 
-        linear.parameters.update(parse_sets(args.set))
+        linear.parameters.update(sets)
         out = simulate_recording(linear, rec)
     else:
         u = rec.exogenous_array(model)
@@ -78,7 +92,18 @@ def run(args: argparse.Namespace) -> int:
             source=f"thermogym simulate {model.name}",
             meta={"inputs": str(args.inputs)},
         )
-    write_recording(out, args.out)
+    with plan:
+        write_recording(out, plan.path("--out"))
+        if args.plot:
+            from thermogym.plotting import plot_recordings
+
+            names = [n for n in model.output_names if n in rec]
+            plot_recordings(
+                [rec],
+                plan.path("--plot"),
+                signals=names or list(model.output_names),
+                overlay={"simulation": {n: out[n] for n in model.output_names}},
+            )
     print(f"simulated {model.name} on {rec.n_samples} samples (dt = {rec.dt:g} s) -> {args.out}")
     for name in model.output_names:
         if name in rec and np.isfinite(rec[name]).all():
@@ -86,14 +111,5 @@ def run(args: argparse.Namespace) -> int:
             fit = 1.0 - np.linalg.norm(y - yh) / max(np.linalg.norm(y - y.mean()), 1e-300)
             print(f"  {name:<24} NRMSE fit {100 * fit:6.2f} %")
     if args.plot:
-        from thermogym.plotting import plot_recordings
-
-        names = [n for n in model.output_names if n in rec]
-        plot_recordings(
-            [rec],
-            args.plot,
-            signals=names or list(model.output_names),
-            overlay={"simulation": {n: out[n] for n in model.output_names}},
-        )
         print(f"  plot: {args.plot}")
     return 0

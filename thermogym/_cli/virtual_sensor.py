@@ -15,15 +15,21 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from thermogym._cli.common import plan_outputs, positive
+from thermogym._cli.data import add_data_options, load_recordings
 from thermogym.errors import ConfigError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare the options."""
-    p.add_argument("data", help="recording (CSV/Parquet), uniform at a multiple of the model's dt")
+    p.add_argument(
+        "data",
+        help="recording (CSV/Parquet or dataset:NAME), uniform at a multiple of the model's dt",
+    )
     p.add_argument("--fit", required=True, help="FitResult JSON of an identified 'ss' model")
     p.add_argument("--out", required=True, help="recording to write (CSV/Parquet)")
     p.add_argument(
@@ -56,11 +62,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "channel, e.g. T_front_outer_housing=T_amb",
     )
     p.add_argument(
-        "--measurement-std", type=float, default=0.05, help="sensor noise std (default 0.05)"
+        "--measurement-std",
+        type=positive(what="a noise standard deviation"),
+        default=0.05,
+        help="sensor noise std (default 0.05)",
     )
     p.add_argument(
         "--process-std",
-        type=float,
+        type=positive(what="a noise standard deviation"),
         default=1e-3,
         help="process noise per sample at the outputs, models without K (default 1e-3)",
     )
@@ -77,6 +86,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "the number of measured channels (never the evaluation data)",
     )
     p.add_argument("--plot", help="also write a PNG of measured, true and estimated signals")
+    add_data_options(p)
 
 
 def _names(text: str | None) -> tuple[str, ...] | None:
@@ -98,6 +108,9 @@ def _pairs(items: list[str]) -> dict[str, float | str]:
             if not v.isidentifier():
                 raise ConfigError(f"{item!r}: {v!r} is neither a number nor a channel") from None
             out[k] = v
+            continue
+        if not np.isfinite(out[k]):
+            raise ConfigError(f"{item!r}: {v!r} is not a finite number")
     return out
 
 
@@ -118,12 +131,23 @@ def _at_rate(sensor, rec):  # type: ignore[no-untyped-def]
 
 
 def run(args: argparse.Namespace) -> int:
-    """Estimate, write, report."""
+    """Estimate, write, report (the outputs are checked first and replaced last)."""
+    plan = plan_outputs(
+        args,
+        files={"out": "recording", "plot": "figure"},
+        inputs=("data", "fit", "tune"),
+    )
+    with plan:
+        return _estimate(args, plan)
+
+
+def _estimate(args: argparse.Namespace, plan: Any) -> int:
     from thermogym.estimation import consistency
     from thermogym.firmware.export import sensor_from_fit
     from thermogym.identification.metrics import nrmse, rmse
-    from thermogym.recording import Recording, read_recording, write_recording
+    from thermogym.recording import Recording, write_recording
 
+    rest = _pairs(args.rest)
     sensor, fit = sensor_from_fit(
         args.fit,
         measured=_names(args.measured) or (),
@@ -133,11 +157,10 @@ def run(args: argparse.Namespace) -> int:
         process_std=args.process_std,
         disturbance_inputs=_names(args.disturbance) or (),
     )
-    rec = read_recording(args.data)
+    (rec,) = load_recordings([args.data], "DATA", args)
     sensor = _at_rate(sensor, rec)
-    rest = _pairs(args.rest)
     if args.tune:
-        cal = read_recording(args.tune)
+        (cal,) = load_recordings([args.tune], "--tune", args)
         cal_sensor = _at_rate(sensor, cal)
         u_c, z_c = cal_sensor.arrays(cal)
         _, alpha = cal_sensor.tuned(u_c, z_c)
@@ -165,7 +188,7 @@ def run(args: argparse.Namespace) -> int:
             "reference": sensor.reference,
         },
     )
-    write_recording(out, args.out)
+    write_recording(out, plan.path("--out"))
     print(
         f"virtual sensor ({args.method}, order {sensor.n_states}, dt {sensor.dt:g} s): "
         f"{rec.n_samples} samples -> {args.out}; exogenous {list(sensor.exogenous_names)}, "
@@ -215,7 +238,7 @@ def run(args: argparse.Namespace) -> int:
         plot_virtual_sensor(
             rec.time,
             {n: est[n] for n in est.names},
-            args.plot,
+            plan.path("--plot"),
             measured={n: rec[n] for n in sensor.measured_names if n in rec},
             truth=truth or None,
             std={n: est.std[:, j] for j, n in enumerate(est.names)},

@@ -19,9 +19,11 @@ sensor    .sensor      spindle virtual sensor; firmware export, host build,
 ========  ===========  ==========================================================
 
 and writes ``report.html`` (self-contained) and ``report.md``
-(:mod:`thermogym.demo.report`). The framework (:mod:`thermogym.demo.core`)
-guarantees that a failing stage is reported while the others still run, and
-that nothing is left half-written.
+(:mod:`thermogym.demo.report`), with ``report.json`` (the sections, read back
+when a later ``--only`` run keeps a stage's earlier section). The framework
+(:mod:`thermogym.demo.core`) guarantees that a failing stage is reported while
+the others still run, that nothing is left half-written, and that a stage not
+run leaves its earlier files and report section alone.
 
 Examples
 --------
@@ -34,14 +36,17 @@ Examples
 
 from __future__ import annotations
 
+import json
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
-from thermogym._fileio import atomic_write_text
+from thermogym._fileio import atomic_write_many
 from thermogym.demo.control import stage_control
 from thermogym.demo.core import (
+    MANIFEST,
     DemoContext,
     Stage,
     StageResult,
@@ -49,11 +54,11 @@ from thermogym.demo.core import (
     Table,
     run_stages,
 )
-from thermogym.demo.diagnose import stage_diagnose
-from thermogym.demo.identify import stage_identify
+from thermogym.demo.diagnose import load_diagnose, stage_diagnose
+from thermogym.demo.identify import load_identify, stage_identify
 from thermogym.demo.refresh import stage_refresh
 from thermogym.demo.report import render_html, render_markdown
-from thermogym.demo.rigs import stage_rigs
+from thermogym.demo.rigs import load_rigs, stage_rigs
 from thermogym.demo.sensor import stage_sensor
 from thermogym.errors import UnknownNameError
 
@@ -68,10 +73,13 @@ __all__ = [
     "stage_keys",
 ]
 
+#: Sections of the last report, read back when a later run does not run every stage.
+REPORT_DATA = "report.json"
+
 STAGES: list[Stage] = [
-    Stage("rigs", "1. Virtual test rigs: the papers' experiments", stage_rigs),
-    Stage("identify", "2. Preparation and identification", stage_identify),
-    Stage("diagnose", "3. Diagnosis of the concealed effect", stage_diagnose),
+    Stage("rigs", "1. Virtual test rigs: the papers' experiments", stage_rigs, load_rigs),
+    Stage("identify", "2. Preparation and identification", stage_identify, load_identify),
+    Stage("diagnose", "3. Diagnosis of the concealed effect", stage_diagnose, load_diagnose),
     Stage("envs", "4. Environments refreshed from the new FitResults", stage_refresh),
     Stage("control", "5. Controller benchmark: energy, lifetime, accuracy", stage_control),
     Stage("sensor", "6. Spindle virtual sensor and its firmware", stage_sensor),
@@ -81,6 +89,55 @@ STAGES: list[Stage] = [
 def stage_keys() -> list[str]:
     """Keys of the stages, in order (``--only`` takes these)."""
     return [s.key for s in STAGES]
+
+
+def _earlier_sections(out: Path) -> dict[str, StageResult]:
+    """The report sections of an earlier run in ``out`` (``report.json``), by stage."""
+    try:
+        doc = json.loads((out / REPORT_DATA).read_text(encoding="utf-8"))
+        return {d["key"]: StageResult.from_dict(d) for d in doc["sections"]}
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+
+
+def _sections(
+    todo: Sequence[Stage],
+    results: list[StageResult],
+    earlier: dict[str, StageResult],
+    manifest: dict[str, Any],
+) -> list[StageResult]:
+    """The report's sections in stage order: this run's, else an earlier run's (marked)."""
+    now = {r.key: r for r in results}
+    out = []
+    for stage in todo:
+        r = now.get(stage.key)
+        old = earlier.get(stage.key)
+        entry = manifest.get(stage.key, {})
+        keep = (
+            old is not None
+            and old.status == "ok"
+            and entry.get("status") == "ok"
+            and (r is None or r.status in ("skipped", "interrupted"))
+        )
+        if keep:
+            assert old is not None  # for the type checker; checked above
+            when = old.ran_at or entry.get("ran_at") or "an earlier run"
+            why = "not run this time" if r is None else f"{r.status} this time ({r.error})"
+            other = (
+                f" with seed {entry['seed']}{', quick mode' if entry.get('quick') else ''}"
+                if "seed" in entry
+                else ""
+            )
+            old.carried = True
+            old.note = (
+                f"{why[0].upper()}{why[1:]}: this section and its files are from the run of "
+                f"{when}{other}."
+            )
+            old.seconds = 0.0 if r is None else r.seconds
+            out.append(old)
+        elif r is not None:
+            out.append(r)
+    return out
 
 
 def run_demo(
@@ -104,23 +161,31 @@ def run_demo(
     seed : int
         Seed of every random draw (same seed, same numbers).
     only : sequence of str, optional
-        Run only these stage keys (:func:`stage_keys`); stages that need the
-        products of a stage not run are skipped with the reason.
+        Run only these stage keys (:func:`stage_keys`). The other stages keep
+        their earlier files and report sections; a selected stage reuses the
+        outputs an earlier run of the stages before it left in ``out`` (same
+        seed and mode), and is skipped with the reason when they are not there.
     progress : bool
-        Print a line per stage and show progress bars inside stages.
+        Print a line per stage and show progress bars inside stages (bars
+        only on a terminal).
     stages : sequence of Stage, optional
         Run these stages instead of :data:`STAGES` (tests).
 
     Returns
     -------
     list of StageResult
+        The stages run, in order.
 
     Raises
     ------
     UnknownNameError
         A key in ``only`` is not a stage.
+    KeyboardInterrupt
+        Ctrl-C; raised after the manifest and the reports were written for
+        what finished (the interrupted stage published nothing).
     """
-    todo = list(STAGES if stages is None else stages)
+    every = list(STAGES if stages is None else stages)
+    todo = every
     if only:
         keys = [s.key for s in todo]
         bad = [k for k in only if k not in keys]
@@ -128,13 +193,52 @@ def run_demo(
             raise UnknownNameError(f"unknown stage(s) {bad}; stages are {keys}")
         todo = [s for s in todo if s.key in only]
     ctx = DemoContext(Path(out), quick=quick, seed=seed, progress=progress)
+    earlier = _earlier_sections(ctx.out)
     t0 = time.perf_counter()
-    results = run_stages(ctx, todo, progress=progress)
+    results = run_stages(ctx, todo, progress=progress, all_stages=every)
     total = time.perf_counter() - t0
     load = os.getloadavg() if hasattr(os, "getloadavg") else None
-    kw = {"seed": seed, "quick": quick, "total": total, "load": load}
-    atomic_write_text(ctx.out / "report.md", render_markdown(results, **kw))
-    atomic_write_text(ctx.out / "report.html", render_html(results, ctx.out, **kw))
+    kw: dict[str, Any] = {"seed": seed, "quick": quick, "total": total, "load": load}
+    try:
+        manifest = json.loads((ctx.out / MANIFEST).read_text())["stages"]
+    except (OSError, ValueError, KeyError):
+        manifest = {}
+    sections = _sections(every, results, earlier, manifest)
+    atomic_write_many(
+        [
+            (ctx.out / "report.md", _writer(render_markdown(sections, **kw))),
+            (ctx.out / "report.html", _writer(render_html(sections, ctx.out, **kw))),
+            (
+                ctx.out / REPORT_DATA,
+                _writer(
+                    json.dumps(
+                        {
+                            "seed": seed,
+                            "quick": quick,
+                            "sections": [
+                                {**r.to_dict(), "carried": False, "note": ""}
+                                for r in sections
+                                if r.status == "ok"
+                            ],
+                        },
+                        indent=1,
+                        default=str,
+                    )
+                ),
+            ),
+        ]
+    )
+    if any(r.status == "interrupted" for r in results):
+        raise KeyboardInterrupt
     if progress:
         print(f"report: {ctx.out / 'report.html'} (and report.md); total {total:.0f} s")
     return results
+
+
+def _writer(text: str) -> Callable[[Path], None]:
+    data = text.encode("utf-8")
+
+    def write(tmp: Path) -> None:
+        tmp.write_bytes(data)
+
+    return write

@@ -9,16 +9,27 @@ Guarantees
 * **Nothing half-written.** A stage writes into its own staging folder
   (``<out>/.staging-<pid>/<stage>/``); only when it finishes are its files
   moved into ``<out>`` (one ``os.replace`` per file, same file system). A
-  failed stage's staging folder is deleted. ``manifest.json`` lists which
-  stage wrote which file; files an earlier run of a stage left and this run
-  did not write again are removed, so every listed file belongs to this run.
-  The reports are written atomically at the end.
+  failed or interrupted stage's staging folder is deleted. ``manifest.json``
+  lists which stage wrote which file and when it ran; files an earlier run of
+  a stage left and this run did not write again are removed, so every listed
+  file belongs to the run the manifest names. The reports are written
+  atomically at the end.
+* **A stage not run leaves its earlier files alone.** With ``--only``, the
+  stages not selected, and a stage skipped for want of its inputs, keep their
+  files, their manifest entry and their report section (marked with when they
+  ran). A selected stage reuses the products of earlier stages from the files
+  of an earlier run in the same folder (same seed and mode), through the
+  earlier stage's ``load`` function.
+* **Ctrl-C** ends the running stage without publishing anything of it; the
+  manifest and the reports are written for what finished (the rest keeps its
+  earlier entries), then :class:`KeyboardInterrupt` propagates.
 * **Deterministic for a seed.** Stages take every random draw from
   ``ctx.seed`` (offsets per use).
 """
 
 from __future__ import annotations
 
+import datetime as _dt
 import json
 import os
 import shutil
@@ -26,7 +37,7 @@ import sys
 import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -87,6 +98,12 @@ class StageResult:
     highlights : dict
         Key numbers for the summary at the top of the report.
     error : str or None
+    ran_at : str
+        When the stage ran (ISO 8601, local time).
+    carried : bool
+        The section is an earlier run's, kept because the stage did not run
+        (or was skipped) this time; ``note`` says why.
+    note : str
     """
 
     key: str
@@ -100,6 +117,22 @@ class StageResult:
     files: list[str] = field(default_factory=list)
     highlights: dict[str, str] = field(default_factory=dict)
     error: str | None = None
+    ran_at: str = ""
+    carried: bool = False
+    note: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The section as JSON-ready data (``report.json``)."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> StageResult:
+        """Inverse of :meth:`to_dict`."""
+        known = set(cls.__dataclass_fields__)
+        kw = {k: v for k, v in d.items() if k in known}
+        kw["tables"] = [Table(**t) for t in kw.get("tables", [])]
+        kw["figures"] = [tuple(f) for f in kw.get("figures", [])]
+        return cls(**kw)
 
     def table(self, header: list[str], rows: list[list[Any]], caption: str = "") -> None:
         """Add a table."""
@@ -137,6 +170,8 @@ class DemoContext:
     progress: bool = True
     products: dict[str, Any] = field(default_factory=dict)
     _stage_dir: Path | None = None
+    #: key -> function that computes a product on first need (reused earlier outputs)
+    lazy: dict[str, Callable[[], Any]] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ paths
     @property
@@ -170,14 +205,21 @@ class DemoContext:
     # ------------------------------------------------------------------ helpers
     def need(self, *keys: str) -> None:
         """Raise :class:`StageSkipped` if an earlier stage did not produce ``keys``."""
+        for k in keys:
+            if k not in self.products and k in self.lazy:
+                self.products[k] = self.lazy.pop(k)()
         missing = [k for k in keys if k not in self.products]
         if missing:
-            raise StageSkipped(f"needs {missing} from an earlier stage that did not finish")
+            why = "; ".join(f"{k}: {v}" for k, v in self.products.get("_reuse_errors", {}).items())
+            raise StageSkipped(
+                f"needs {missing} from an earlier stage that did not finish"
+                + (f" (earlier outputs not reused: {why})" if why else "")
+            )
 
     def bar(self, items: Iterable[T], desc: str, total: int | None = None) -> Iterator[T]:
-        """Iterate with a tqdm bar on stderr when progress is on."""
-        if not self.progress:
-            yield from items
+        """Iterate with a tqdm bar on stderr when progress is on and stderr is a terminal."""
+        if not self.progress or not getattr(sys.stderr, "isatty", lambda: False)():
+            yield from items  # no cursor codes in pipes and logs
             return
         from tqdm.auto import tqdm
 
@@ -196,11 +238,16 @@ class Stage:
     title : str
     run : callable
         ``run(ctx, result)``; fills ``result``, writes files through ``ctx.path``.
+    load : callable, optional
+        ``load(ctx)``: rebuild the stage's products from the files an earlier
+        run wrote under ``ctx.out`` (``--only`` of a later stage); raises
+        :class:`StageSkipped` when they are not there.
     """
 
     key: str
     title: str
     run: Callable[[DemoContext, StageResult], None]
+    load: Callable[[DemoContext], None] | None = None
 
 
 # --------------------------------------------------------------------------- manifest
@@ -242,11 +289,48 @@ def _remove_stale(out: Path, old: Sequence[str], keep: set[str]) -> None:
 
 
 # --------------------------------------------------------------------------- runner
+def _now() -> str:
+    return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
+
+
+def _reuse_earlier(
+    ctx: DemoContext,
+    todo: Sequence[Stage],
+    others: Sequence[Stage],
+    old: dict[str, dict[str, Any]],
+) -> list[str]:
+    """Load the products of stages not run from an earlier run's files; what was reused."""
+    if not todo:
+        return []
+    order = [s.key for s in others]
+    last = max(order.index(s.key) for s in todo if s.key in order) if order else -1
+    selected = {s.key for s in todo}
+    reused = []
+    for stage in others[:last]:
+        entry = old.get(stage.key, {})
+        if stage.key in selected or stage.load is None or entry.get("status") != "ok":
+            continue
+        if "seed" in entry or "quick" in entry:  # another seed or mode than this run's
+            ctx.products.setdefault("_reuse_errors", {})[stage.key] = (
+                f"the earlier {stage.key!r} outputs are from seed {entry.get('seed')}"
+                f"{', quick mode' if entry.get('quick') else ''}"
+            )
+            continue
+        try:
+            stage.load(ctx)
+        except (StageSkipped, OSError, ValueError, KeyError) as e:
+            ctx.products.setdefault("_reuse_errors", {})[stage.key] = str(e)
+            continue
+        reused.append(stage.key)
+    return reused
+
+
 def run_stages(
     ctx: DemoContext,
     stages: Sequence[Stage],
     *,
     progress: bool = True,
+    all_stages: Sequence[Stage] | None = None,
 ) -> list[StageResult]:
     """Run ``stages`` in order with the guarantees of the module docstring.
 
@@ -256,21 +340,38 @@ def run_stages(
     stages : sequence of Stage
     progress : bool
         Print a line per stage (start and outcome).
+    all_stages : sequence of Stage, optional
+        Every stage of the demo in order; those not in ``stages`` that come
+        before a selected one lend their earlier products (``Stage.load``).
 
     Returns
     -------
     list of StageResult
+        One per stage run; a stage interrupted by Ctrl-C has status
+        ``"interrupted"`` and is the last one (``KeyboardInterrupt`` is raised
+        again by the caller after the reports are written).
     """
     ctx.out.mkdir(parents=True, exist_ok=True)
     for stale in ctx.out.glob(".staging-*"):  # left by a run that was killed
         shutil.rmtree(stale, ignore_errors=True)
     staging_root = ctx.out / f".staging-{os.getpid()}"
-    old = _read_manifest(ctx.out).get("stages", {})
-    manifest: dict[str, Any] = {k: v for k, v in old.items() if k not in {s.key for s in stages}}
+    old_doc = _read_manifest(ctx.out)
+    old = {
+        k: {"seed": old_doc.get("seed"), "quick": old_doc.get("quick"), **v}
+        for k, v in old_doc.get("stages", {}).items()
+        if isinstance(v, dict)
+    }
+    for v in old.values():  # each entry names its own seed and mode when they differ
+        if v["seed"] == ctx.seed and v["quick"] == ctx.quick:
+            del v["seed"], v["quick"]
+    reused = _reuse_earlier(ctx, stages, list(all_stages or []), old)
+    if progress and reused:
+        print(f"reusing the outputs of earlier stage(s) {reused} in {ctx.out}", flush=True)
+    manifest: dict[str, Any] = dict(old)
     results: list[StageResult] = []
     try:
         for i, stage in enumerate(stages, 1):
-            res = StageResult(stage.key, stage.title)
+            res = StageResult(stage.key, stage.title, ran_at=_now())
             if progress:
                 print(f"[{i}/{len(stages)}] {stage.title} ...", flush=True)
             ctx._stage_dir = staging_root / stage.key
@@ -282,6 +383,12 @@ def run_stages(
                 res.files = _publish(ctx._stage_dir, ctx.out)
             except StageSkipped as e:
                 res.status, res.error = "skipped", str(e)
+            except KeyboardInterrupt:
+                res.status, res.error = "interrupted", "interrupted (Ctrl-C); nothing published"
+                res.seconds = time.perf_counter() - t0
+                res.figures, res.files = [], []
+                results.append(res)
+                break
             except Exception as e:
                 res.status = "failed"
                 res.error = f"{type(e).__name__}: {e}"
@@ -295,12 +402,24 @@ def run_stages(
             if res.status != "ok":
                 # a stage that did not finish claims no files (its figures were staged only)
                 res.figures, res.files = [], []
-            _remove_stale(ctx.out, old.get(stage.key, {}).get("files", []), set(res.files))
-            if res.status != "failed":
-                stale_log = ctx.out / "logs" / f"{stage.key}.txt"
-                if stale_log.is_file():
-                    stale_log.unlink()
-            manifest[stage.key] = {"status": res.status, "files": res.files}
+            if res.status == "skipped" and stage.key in old:
+                # not run: its earlier files, manifest entry and section stay as they were
+                manifest[stage.key] = {
+                    **old[stage.key],
+                    "skipped_at": res.ran_at,
+                    "skipped": res.error,
+                }
+            else:
+                _remove_stale(ctx.out, old.get(stage.key, {}).get("files", []), set(res.files))
+                if res.status != "failed":
+                    stale_log = ctx.out / "logs" / f"{stage.key}.txt"
+                    if stale_log.is_file():
+                        stale_log.unlink()
+                manifest[stage.key] = {
+                    "status": res.status,
+                    "files": res.files,
+                    "ran_at": res.ran_at,
+                }
             if progress:
                 print(
                     f"      {res.status} in {res.seconds:.1f} s"
@@ -310,10 +429,17 @@ def run_stages(
             results.append(res)
     finally:
         shutil.rmtree(staging_root, ignore_errors=True)
+        ctx._stage_dir = None
         atomic_write_text(
             ctx.out / MANIFEST,
             json.dumps(
-                {"package_version": __version__, "seed": ctx.seed, "stages": manifest}, indent=2
+                {
+                    "package_version": __version__,
+                    "seed": ctx.seed,
+                    "quick": ctx.quick,
+                    "stages": manifest,
+                },
+                indent=2,
             )
             + "\n",
         )

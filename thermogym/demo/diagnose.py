@@ -16,7 +16,7 @@ from thermogym.demo.core import DemoContext, StageResult
 from thermogym.demo.identify import save_fit
 from thermogym.demo.rigs import CONCEALED
 
-__all__ = ["stage_diagnose"]
+__all__ = ["load_diagnose", "stage_diagnose"]
 
 
 def _f(d: dict[str, Any], k: str) -> float:
@@ -110,3 +110,13 @@ def stage_diagnose(ctx: DemoContext, res: StageResult) -> None:
         f"mean NRMSE {_f(va_before, 'mean'):.4f} → {_f(va_after, 'mean'):.4f} in "
         f"{rep.seconds:.1f} s"
     )
+
+
+def load_diagnose(ctx: DemoContext) -> None:
+    """Products of an earlier diagnosis in ``ctx.out``: the augmented model's FitResult."""
+    from thermogym.fitresult import load_fit
+
+    p = ctx.out / "fits" / "strut_augmented.json"
+    if p.is_file():
+        ctx.products["fit_strut_augmented"] = load_fit(p)
+        ctx.products.setdefault("fit_paths", {})["strut_augmented"] = p

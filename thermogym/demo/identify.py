@@ -21,7 +21,7 @@ import numpy as np
 
 from thermogym.demo.core import DemoContext, StageResult
 
-__all__ = ["save_fit", "stage_identify"]
+__all__ = ["load_identify", "save_fit", "stage_identify"]
 
 
 def save_fit(ctx: DemoContext, fit: Any, name: str) -> str:
@@ -48,11 +48,10 @@ def _mean(d: Any, key: str = "mnrmse") -> float:
     return float(np.mean(vals)) if vals else math.nan
 
 
-def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> None:
-    from thermogym.identification.linear_plots import plot_order_cv
-    from thermogym.identification.n4sid import n4sid
+def _prepare_spindle(ctx: DemoContext, recs: dict[str, list[Any]]) -> tuple[Any, list[Any]]:
+    """The raw spindle days prepared (paper 001 section 2.3.1), and a table row per day."""
     from thermogym.identification.prepare import prepare
-    from thermogym.studies.spindle import OUTPUTS, PREPARE, SpindleData, table5
+    from thermogym.studies.spindle import PREPARE, SpindleData
 
     t0 = time.perf_counter()
     runs: dict[tuple[int, int], Any] = {}
@@ -78,6 +77,15 @@ def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> 
         else:
             validation[speed] = p
     data = SpindleData(runs, validation, {"prepare": time.perf_counter() - t0}, 0)
+    return data, prep_rows
+
+
+def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> None:
+    from thermogym.identification.linear_plots import plot_order_cv
+    from thermogym.identification.n4sid import n4sid
+    from thermogym.studies.spindle import OUTPUTS, table5
+
+    data, prep_rows = _prepare_spindle(ctx, recs)
     ctx.products["spindle_data"] = data
     res.table(
         [
@@ -239,8 +247,6 @@ def _axt211(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> N
     )
     from thermogym.models.registry import get_model
     from thermogym.plotting import plot_recordings
-    from thermogym.rigs import get_rig
-    from thermogym.studies.axt211 import rig_equivalents
 
     steps = recs["axt211/steps"]
     train_ids = {"axt211-step-24V-25C", "axt211-step-19V-0C", "axt211-step-29V-50C"}
@@ -249,9 +255,7 @@ def _axt211(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> N
     if ctx.quick:
         validation = validation[:2]
     full_stroke = max(train, key=lambda r: float(np.nanmax(r["x_V"])))
-    from thermogym.demo.rigs import axt211_specimen
-
-    truth = rig_equivalents(get_rig("axt211").with_specimen(axt211_specimen(ctx.seed)[1]))
+    truth = _axt211_truth(ctx.seed)
     # start values: nominal ± 20 % (seeded), so that the fit has something to find
     rng = np.random.default_rng(ctx.seed)
     start = {}
@@ -376,3 +380,51 @@ def _fit_table(rows: list[list[Any]]) -> Any:
         rows,
         "FitResults written (MNRMSE: mean NRMSE fit of paper 001 eq 6, 1 = perfect)",
     )
+
+
+#: FitResult file (under ``fits/``) -> product of the identification stage.
+_FIT_PRODUCTS = {
+    "spindle_n4sid": "fit_spindle_n4sid",
+    "strut_foptd": "fit_strut_foptd",
+    "strut_ratios": "fit_strut_ratios",
+    "axt211_greybox": "fit_axt211",
+}
+
+
+def _axt211_truth(seed: int) -> dict[str, float]:
+    """The demo's AXT211 specimen's values of the model parameters that have a physical match.
+
+    The rig's true plant is not the model (:func:`thermogym.studies.axt211.rig_equivalents`).
+    """
+    from thermogym.demo.rigs import axt211_specimen
+    from thermogym.rigs import get_rig
+    from thermogym.studies.axt211 import rig_equivalents
+
+    return rig_equivalents(get_rig("axt211").with_specimen(axt211_specimen(seed)[1]))
+
+
+def load_identify(ctx: DemoContext) -> None:
+    """Products of an earlier identification in ``ctx.out``: FitResults, prepared spindle data.
+
+    The prepared spindle days are rebuilt from the recordings only when a stage
+    needs them (``spindle_data``).
+    """
+    from thermogym.demo.core import StageSkipped
+    from thermogym.fitresult import load_fit
+
+    found = False
+    for name, key in _FIT_PRODUCTS.items():
+        p = ctx.out / "fits" / f"{name}.json"
+        if p.is_file():
+            ctx.products[key] = load_fit(p)
+            ctx.products.setdefault("fit_paths", {})[name] = p
+            found = True
+    if not found:
+        raise StageSkipped(f"no earlier FitResults in {str(ctx.out / 'fits')!r}")
+    ctx.products["axt211_truth"] = _axt211_truth(ctx.seed)
+
+    def spindle_data() -> Any:
+        ctx.need("recordings")
+        return _prepare_spindle(ctx, ctx.products["recordings"])[0]
+
+    ctx.lazy["spindle_data"] = spindle_data

@@ -53,8 +53,27 @@ def _md_table(t: Table) -> str:
     return "\n".join(lines)
 
 
+def _status(r: StageResult) -> str:
+    return f"{r.status} (earlier run, {r.ran_at})" if r.carried else r.status
+
+
 def _summary_rows(results: Sequence[StageResult]) -> list[list[str]]:
-    return [[r.title, r.status, f"{r.seconds:.1f} s"] for r in results]
+    return [[r.title, _status(r), f"{r.seconds:.1f} s"] for r in results]
+
+
+def _ran(results: Sequence[StageResult]) -> str:
+    n_run = sum(not r.carried for r in results)
+    kept = len(results) - n_run
+    return f"{n_run} stage(s)" + (
+        f" run, {kept} section(s) kept from earlier runs," if kept else ""
+    )
+
+
+def _not_done(results: Sequence[StageResult]) -> tuple[list[Any], list[Any], list[Any]]:
+    failed = [r for r in results if r.status == "failed"]
+    skipped = [r for r in results if r.status in ("skipped", "interrupted")]
+    carried = [r for r in results if r.carried]
+    return failed, skipped, carried
 
 
 def _machine(total: float, load: tuple[float, float, float] | None) -> str:
@@ -71,22 +90,23 @@ def render_markdown(
     load: tuple[float, float, float] | None = None,
 ) -> str:
     """The Markdown report (figures linked relative to the output folder)."""
-    failed = [r for r in results if r.status == "failed"]
-    skipped = [r for r in results if r.status == "skipped"]
+    failed, skipped, carried = _not_done(results)
     lines = [
         "# thermogym demo report",
         "",
         "## Summary",
         "",
         f"thermogym {__version__}, seed {seed}{', quick mode' if quick else ''}; "
-        f"{len(results)} stage(s) in {total:.0f} s on {_machine(total, load)}.",
+        f"{_ran(results)} in {total:.0f} s on {_machine(total, load)}.",
         "",
     ]
-    if failed or skipped:
+    if failed or skipped or carried:
         for r in failed:
             lines.append(f"* **FAILED** {r.title}: {r.error} (traceback in `logs/{r.key}.txt`)")
         for r in skipped:
-            lines.append(f"* **SKIPPED** {r.title}: {r.error}")
+            lines.append(f"* **{r.status.upper()}** {r.title}: {r.error}")
+        for r in carried:
+            lines.append(f"* **EARLIER RUN** {r.title}: {r.note}")
     else:
         lines.append("* Every stage finished.")
     lines.append("")
@@ -109,6 +129,8 @@ def render_markdown(
         lines += [f"## {r.title}", ""]
         if r.status != "ok":
             lines += [f"**{r.status.upper()}**: {r.error}", ""]
+        if r.carried:
+            lines += [f"**EARLIER RUN**: {r.note}", ""]
         if r.shows:
             lines += [f"*What it shows:* {r.shows}", ""]
         if r.text:
@@ -194,7 +216,7 @@ img{max-width:100%;border:1px solid #eee}figure{margin:1.2em 0}
 figcaption{color:#555;font-style:italic;font-size:.92em}
 code{background:#f4f4f4;padding:0 3px;border-radius:3px}
 .status-ok{color:#1e8449;font-weight:600}.status-failed{color:#c0392b;font-weight:700}
-.status-skipped{color:#b9770e;font-weight:600}
+.status-skipped,.status-interrupted{color:#b9770e;font-weight:600}
 .alert{border-left:4px solid #c0392b;background:#fdf2f0;padding:.5em 1em;margin:.8em 0}
 .shows{background:#f4f8fb;border-left:4px solid #2e86c1;padding:.4em 1em}
 .files{color:#555;font-size:.92em}nav ol{columns:2}
@@ -211,8 +233,7 @@ def render_html(
     load: tuple[float, float, float] | None = None,
 ) -> str:
     """The self-contained HTML page (figures read from ``out`` and embedded)."""
-    failed = [r for r in results if r.status == "failed"]
-    skipped = [r for r in results if r.status == "skipped"]
+    failed, skipped, carried = _not_done(results)
     e = html.escape
     parts = [
         "<!DOCTYPE html>",
@@ -222,14 +243,21 @@ def render_html(
         "<h1>thermogym demo report</h1>",
         '<section id="summary"><h2>Summary</h2>',
         f"<p>thermogym {e(__version__)}, seed {seed}{', quick mode' if quick else ''}; "
-        f"{len(results)} stage(s) in {total:.0f} s on {e(_machine(total, load))}.</p>",
+        f"{_ran(results)} in {total:.0f} s on {e(_machine(total, load))}.</p>",
     ]
-    if failed or skipped:
-        items = [
-            f"<li><strong>FAILED</strong> {e(r.title)}: {e(r.error or '')} (traceback in "
-            f"<code>logs/{e(r.key)}.txt</code>)</li>"
-            for r in failed
-        ] + [f"<li><strong>SKIPPED</strong> {e(r.title)}: {e(r.error or '')}</li>" for r in skipped]
+    if failed or skipped or carried:
+        items = (
+            [
+                f"<li><strong>FAILED</strong> {e(r.title)}: {e(r.error or '')} (traceback in "
+                f"<code>logs/{e(r.key)}.txt</code>)</li>"
+                for r in failed
+            ]
+            + [
+                f"<li><strong>{e(r.status.upper())}</strong> {e(r.title)}: {e(r.error or '')}</li>"
+                for r in skipped
+            ]
+            + [f"<li><strong>EARLIER RUN</strong> {e(r.title)}: {e(r.note)}</li>" for r in carried]
+        )
         parts.append(f'<div class="alert"><ul>{"".join(items)}</ul></div>')
     else:
         parts.append("<p>Every stage finished.</p>")
@@ -247,7 +275,7 @@ def render_html(
     )
     rows = "".join(
         f'<tr><td><a href="#{stage_anchor(r.key)}">{e(r.title)}</a></td>'
-        f'<td class="status-{e(r.status)}">{e(r.status)}</td><td>{r.seconds:.1f} s</td></tr>'
+        f'<td class="status-{e(r.status)}">{e(_status(r))}</td><td>{r.seconds:.1f} s</td></tr>'
         for r in results
     )
     parts.append(
@@ -265,6 +293,10 @@ def render_html(
             parts.append(
                 f'<div class="alert"><span class="status-{e(r.status)}">{e(r.status.upper())}'
                 f"</span>: {e(r.error or '')}</div>"
+            )
+        if r.carried:
+            parts.append(
+                f'<div class="alert"><strong>EARLIER RUN</strong>: {_inline(r.note)}</div>'
             )
         if r.shows:
             parts.append(f'<p class="shows"><em>What it shows:</em> {_inline(r.shows)}</p>')

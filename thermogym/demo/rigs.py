@@ -13,7 +13,7 @@ from typing import Any
 
 from thermogym.demo.core import DemoContext, StageResult
 
-__all__ = ["CONCEALED", "axt211_specimen", "stage_rigs"]
+__all__ = ["CONCEALED", "axt211_specimen", "load_rigs", "stage_rigs"]
 
 #: The strut rig's concealed physics (effect spec of :func:`thermogym.rigs.parse_effect`).
 CONCEALED = "input_dependent_heat_transfer"
@@ -128,3 +128,31 @@ def stage_rigs(ctx: DemoContext, res: StageResult) -> None:
         "identification has to find it with a model that lacks part of the rig's physics."
     )
     res.highlights["recordings written"] = str(sum(len(v) for v in recs.values()))
+
+
+def load_rigs(ctx: DemoContext) -> None:
+    """Products of an earlier rigs stage in ``ctx.out``: its recordings, by experiment."""
+    from thermogym.demo.core import StageSkipped
+    from thermogym.recording import read_recording
+
+    root = ctx.out / "recordings"
+    if not root.is_dir():
+        raise StageSkipped(f"no earlier recordings in {str(root)!r}")
+    recs: dict[str, list[Any]] = {}
+    for folder in sorted(p for p in root.iterdir() if p.is_dir()):
+        rig, sep, proto = folder.name.partition("-")
+        if not sep:
+            continue
+        manifest = folder / "manifest.json"
+        if manifest.is_file():
+            import json
+
+            names = [e["file"] for e in json.loads(manifest.read_text())["recordings"]]
+        else:  # the AXT211 experiments are written one by one, without a manifest
+            names = sorted(
+                f.name for f in folder.iterdir() if f.name.endswith((".csv", ".parquet"))
+            )
+        recs[f"{rig}/{proto}"] = [read_recording(folder / n) for n in names]
+    if not recs:
+        raise StageSkipped(f"no earlier recordings in {str(root)!r}")
+    ctx.products["recordings"] = recs

@@ -432,6 +432,33 @@ def _render(env: Any, history: list[NDArray[np.float64]], mode: str) -> Any:
 
 
 # ------------------------------------------------------------- single envs
+def _action_array(
+    name: str, action: Any, shape: tuple[int, ...], space: Any, *, batched: bool = False
+) -> NDArray[np.float64]:
+    """``action`` as float64 of exactly ``shape``, or a :class:`ShapeError` naming both.
+
+    An action is never broadcast or reshaped into the space: a (1,) action for
+    a (2,) space (TCLab's two heaters) would otherwise drive both inputs with
+    one value. A scalar is accepted for a one-element action (and ``(N,)`` for
+    ``N`` sub-environments of one action each).
+    """
+    what = "actions" if batched else "action"
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (ValueError, TypeError) as err:
+        raise ShapeError(
+            f"{name}: {what} {action!r:.60} cannot be read as numbers; expected an array of "
+            f"shape {shape} for the action space {space}"
+        ) from err
+    one = shape[-1:] == (1,)
+    if a.shape == shape or (one and a.shape == shape[:-1]):
+        return a.reshape(shape)
+    raise ShapeError(
+        f"{name}: {what} of shape {a.shape}, expected {shape} for the action space {space} "
+        "(an action is never broadcast)"
+    )
+
+
 class ThermoEnv(gym.Env[NDArray[np.float32], Any]):
     """A Gymnasium environment around an :class:`Engine` with one plant.
 
@@ -595,12 +622,7 @@ class ThermoEnv(gym.Env[NDArray[np.float32], Any]):
                 f"{e.name}: the episode is over (step {int(e.ctr[0, C_K])} of {e.horizon}); "
                 "call reset() before step()"
             )
-        try:
-            e.act[0] = action
-        except (ValueError, TypeError) as err:
-            raise ShapeError(
-                f"{e.name}: action {action!r:.60} does not fit the action space {self.action_space}"
-            ) from err
+        e.act[0] = _action_array(e.name, action, e.act.shape[1:], self.action_space)
         e.step(self._rngs, None)
         rew, term, trunc = e.out[0].tolist()  # Python floats in one call (cheaper per step)
         terminated = term > 0.5
@@ -766,13 +788,7 @@ class ThermoVectorEnv(gym.vector.VectorEnv):
     ]:
         """Step every sub-environment; those that ended last step are reset (NEXT_STEP)."""
         e = self._e
-        try:
-            e.act[:] = np.reshape(np.asarray(actions, dtype=np.float64), e.act.shape)
-        except (ValueError, TypeError) as err:
-            raise ShapeError(
-                f"{e.name}: actions of shape {np.shape(actions)} do not fit the batched action "
-                f"space {self.action_space}"
-            ) from err
+        e.act[:] = _action_array(e.name, actions, e.act.shape, self.action_space, batched=True)
         mode = self.metadata["autoreset_mode"]
         resets = self._needs_reset
         any_reset = bool(resets.any()) and mode == AutoresetMode.NEXT_STEP

@@ -15,6 +15,9 @@ protocols; and concealed effects in its own physics.
 from __future__ import annotations
 
 import json
+import os
+import secrets
+import shutil
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -126,7 +129,9 @@ def run_experiment(
     rig, protocol : str
         Rig name and protocol name.
     out : path, optional
-        Folder for the recordings (created if needed).
+        Folder for the recordings (created if needed). The files are written
+        into a staging folder inside it and moved into place, manifest last,
+        only when all of them were written.
     seed : int
         Seed of every random draw.
     effects : sequence
@@ -149,19 +154,30 @@ def run_experiment(
     if out is not None:
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)
-        entries = []
-        for rec in recs:
-            path = folder / f"{rec.experiment_id}.{fmt}"
-            write_recording(rec, path, overwrite=overwrite)
-            entries.append(
-                {
-                    "file": path.name,
-                    "experiment_id": rec.experiment_id,
-                    "n_samples": rec.n_samples,
-                    "duration_s": rec.duration,
-                    "meta": rec.meta,
-                }
-            )
-        manifest = {"rig": rig, "protocol": protocol, "seed": seed, "recordings": entries}
-        atomic_write_text(folder / "manifest.json", json.dumps(manifest, indent=2) + "\n")
+        # every file goes to a staging folder first and moves into place only when all of
+        # them (manifest included) were written: an interrupted run leaves no partial set
+        stage = folder / f".staging-{os.getpid()}-{secrets.token_hex(4)}"
+        stage.mkdir()
+        try:
+            entries = []
+            for rec in recs:
+                name = f"{rec.experiment_id}.{fmt}"
+                if not overwrite and (folder / name).exists():
+                    raise ConfigError(f"{str(folder / name)!r} exists and overwrite=False")
+                write_recording(rec, stage / name)
+                entries.append(
+                    {
+                        "file": name,
+                        "experiment_id": rec.experiment_id,
+                        "n_samples": rec.n_samples,
+                        "duration_s": rec.duration,
+                        "meta": rec.meta,
+                    }
+                )
+            manifest = {"rig": rig, "protocol": protocol, "seed": seed, "recordings": entries}
+            atomic_write_text(stage / "manifest.json", json.dumps(manifest, indent=2) + "\n")
+            for f in sorted(stage.iterdir(), key=lambda f: f.name == "manifest.json"):
+                os.replace(f, folder / f.name)  # the manifest last
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
     return recs

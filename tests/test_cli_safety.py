@@ -1,0 +1,541 @@
+"""The command line under bad input and interruption (issue 17): one case per finding.
+
+Every bad input exits 2 with one line on stderr that names the offending option,
+column or value, and writes nothing; an interrupted command exits 130 and leaves
+existing files as they were.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from thermogym.cli import main
+
+
+def _digest(folder: Path) -> dict[str, str]:
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+def _one_error_line(capsys, *needles: str) -> str:
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err and "error" in lines[0], err
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def strut_csv(tmp_path_factory) -> Path:
+    """A short strut step test (73 samples) written by the rig."""
+    folder = tmp_path_factory.mktemp("strut")
+    assert (
+        main(["experiment", "strut", "steps", "--out", str(folder), "--option", "feed_rates=[20]"])
+        == 0
+    )
+    return folder / "strut-step-20.csv"
+
+
+@pytest.fixture
+def axt_csv(tmp_path) -> Path:
+    p = tmp_path / "ax.csv"
+    t = np.arange(60.0)
+    rows = "\n".join(f"{x:g},{1.0 if x < 30 else 0.0},24,25" for x in t)
+    p.write_text("time,u,k_U,T_U\n" + rows + "\n")
+    return p
+
+
+# ---------------------------------------------------------------- data lost or replaced
+def test_simulate_refuses_to_write_over_its_input(axt_csv, capsys):
+    before = axt_csv.read_bytes()
+    assert main(["simulate", "axt211", "--inputs", str(axt_csv), "--out", str(axt_csv)]) == 2
+    _one_error_line(capsys, "--out", "also an input", "--inputs")
+    assert axt_csv.read_bytes() == before
+    # the same file by another spelling is the same file
+    other = axt_csv.parent / "." / axt_csv.name
+    assert main(["simulate", "axt211", "--inputs", str(axt_csv), "--out", str(other)]) == 2
+    assert axt_csv.read_bytes() == before
+
+
+def test_montecarlo_interrupted_keeps_out_and_writes_best_so_far_elsewhere(
+    strut_csv, tmp_path, capsys, monkeypatch
+):
+    from thermogym.identification.optimizers import base
+
+    out = tmp_path / "fit.json"
+    out.write_text('{"an": "earlier fit"}\n')
+    calls = {"n": 0}
+    original = base.Tracker.evaluate
+
+    def interrupted_on_second_batch(self, *a, **kw):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        return original(self, *a, **kw)
+
+    monkeypatch.setattr(base.Tracker, "evaluate", interrupted_on_second_batch)
+    argv = ["identify", "montecarlo", "--model", "strut", str(strut_csv), "--free", "r_motor"]
+    argv += ["--samples", "200", "--batch-size", "50", "--out", str(out), "--no-progress"]
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert out.read_text() == '{"an": "earlier fit"}\n'  # untouched
+    partial = tmp_path / "fit.interrupted.json"
+    assert partial.is_file() and str(partial) in err and "left unchanged" in err
+    assert json.loads(partial.read_text())["model"] == "strut"
+    assert not list(tmp_path.glob(".thermogym-staging-*"))
+    # a second interruption does not overwrite the first best-so-far
+    calls["n"] = 0
+    assert main(argv) == 130
+    assert (tmp_path / "fit.interrupted-2.json").is_file()
+
+
+def test_interrupted_experiment_leaves_no_partial_set(tmp_path, capsys, monkeypatch):
+    import thermogym.rigs as rigs
+
+    out = tmp_path / "raw"
+    n = {"files": 0}
+    original = rigs.write_recording
+
+    def dies_on_second(rec, path, **kw):
+        n["files"] += 1
+        if n["files"] == 2:
+            raise KeyboardInterrupt
+        return original(rec, path, **kw)
+
+    monkeypatch.setattr(rigs, "write_recording", dies_on_second)
+    argv = ["experiment", "spindle", "run-in", "--out", str(out), "--option", "speeds=[4000]"]
+    argv += ["--option", "duration_h=0.2", "--format", "parquet"]
+    assert main(argv) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert not out.exists() or not any(out.iterdir())  # no recordings without their manifest
+    assert not [p for p in tmp_path.rglob("*") if "staging" in p.name]
+    # an earlier complete set in the folder survives an interrupted rerun unchanged
+    monkeypatch.setattr(rigs, "write_recording", original)
+    assert main(argv) == 0
+    before = _digest(out)
+    assert "manifest.json" in before and len(before) == 3
+    monkeypatch.setattr(rigs, "write_recording", dies_on_second)
+    n["files"] = 0
+    assert main([*argv, "--seed", "5"]) == 130
+    assert _digest(out) == before
+
+
+def test_ctrl_c_during_a_write_leaves_the_existing_output(axt_csv, tmp_path, capsys, monkeypatch):
+    import thermogym.recording as recording
+
+    out = tmp_path / "sim.csv"
+    out.write_text("time,x\n0,1\n")
+
+    def interrupted(*a, **kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(recording, "write_recording", interrupted)
+    assert main(["simulate", "axt211", "--inputs", str(axt_csv), "--out", str(out)]) == 130
+    assert out.read_text() == "time,x\n0,1\n"
+    assert "nothing was written over an existing file" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ax.csv", "sim.csv"]
+
+
+# ---------------------------------------------------------------- tracebacks
+def test_experiment_option_of_the_wrong_type(tmp_path, capsys):
+    out = tmp_path / "o"
+    argv = ["experiment", "strut", "steps", "--out", str(out), "--option", "feed_rates=abc"]
+    assert main(argv) == 2
+    _one_error_line(capsys, "feed_rates=abc", "list of numbers", "feed_rates=[20,25,30]")
+    for bad, needle in [
+        ("feed_rates=[20,'x']", "'x' is not a number"),
+        ("feed_rates=[-20]", "> 0"),
+        ("T_air=hot", "a number"),
+        ("T_air=1e6", "temperatures in"),
+        ("feed_rate=20", "has no option 'feed_rate'"),
+        ("feed_rates", "KEY=VALUE"),
+    ]:
+        assert main(["experiment", "strut", "steps", "--out", str(out), "--option", bad]) == 2
+        _one_error_line(capsys, needle)
+    assert not out.exists()
+
+
+def test_out_naming_an_existing_file_where_a_folder_is_expected(tmp_path, capsys, strut_csv):
+    f = tmp_path / "taken.txt"
+    f.write_text("mine")
+    assert main(["experiment", "strut", "steps", "--out", str(f)]) == 2
+    _one_error_line(capsys, "--out", "is a file; expected a folder")
+    argv = ["identify", "foptd", str(strut_csv), "--inputs", "feed_rate", "--outputs", "T_nut"]
+    assert main([*argv, "--out", str(tmp_path / "f.json"), "--plots", str(f)]) == 2
+    _one_error_line(capsys, "--plots", "is a file")
+    assert f.read_text() == "mine" and not (tmp_path / "f.json").exists()
+
+
+# ---------------------------------------------------------------- accepted silently
+@pytest.mark.parametrize(
+    ("argv", "needles"),
+    [
+        (
+            [
+                "diagnose",
+                "--model",
+                "strut",
+                "--train",
+                "x",
+                "--validate",
+                "x",
+                "--out",
+                "r.json",
+                "--alpha",
+                "2",
+            ],
+            ["--alpha", "2", "(0, 1)"],
+        ),
+        (["bench", "--env", "AXT211Valve", "--out", "b", "--workers", "0"], ["--workers", "0"]),
+        (
+            ["identify", "n4sid", "x.csv", "--out", "f.json", "--folds", "1"],
+            ["--folds", "1", "in [2, 100]"],
+        ),
+        (
+            ["identify", "foptd", "x.csv", "--out", "f.json", "--max-delay-s", "-5"],
+            ["--max-delay-s", "-5 s", ">= 0 s"],
+        ),
+        (["--bogus"], ["--bogus"]),
+        (["simulate", "--inputs", "x.csv", "--out", "y.csv", "--bogus"], ["--bogus"]),
+    ],
+)
+def test_bad_option_values_are_one_line_errors(argv, needles, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    line = _one_error_line(capsys, *needles)
+    assert "samples" not in line
+    assert sorted(tmp_path.iterdir()) == []
+
+
+def test_tclab_refuses_an_action_of_the_wrong_shape():
+    import gymnasium as gym
+
+    import thermogym.envs  # noqa: F401
+    from thermogym.errors import ShapeError
+
+    env = gym.make("thermogym/TCLab-v0")
+    env.reset(seed=0)
+    with pytest.raises(ShapeError, match=r"shape \(1,\), expected \(2,\)"):
+        env.step(np.array([0.5], np.float32))
+    env.step(np.array([0.5, 0.0], np.float32))  # the right shape still steps
+    venv = gym.make_vec("thermogym/TCLab-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    with pytest.raises(ShapeError, match=r"shape \(2, 3\), expected \(3, 2\)"):
+        venv.step(np.zeros((2, 3)))  # same size, transposed: never reshaped
+    with pytest.raises(ShapeError):
+        venv.step(np.zeros(6))
+    valve = gym.make("thermogym/AXT211Valve-v0")
+    valve.reset(seed=0)
+    valve.step(0.2)  # a scalar for a one-element action is unambiguous
+
+
+def test_demo_with_every_stage_skipped_says_so(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path), "--only", "diagnose", "--no-progress"]) == 2
+    captured = capsys.readouterr()
+    assert "diagnose skipped" in captured.out  # the summary line even with --no-progress
+    _one_error_line_from(captured.err, "no stage ran", "'diagnose' was skipped", "recordings")
+
+
+def _one_error_line_from(err: str, *needles: str) -> None:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    for n in needles:
+        assert n in lines[0], (n, lines[0])
+
+
+# ---------------------------------------------------------------- unclear messages
+def test_semicolon_and_decimal_comma_csv(tmp_path, capsys):
+    from thermogym.recording import read_recording
+
+    p = tmp_path / "semi.csv"
+    p.write_text("time;u;k_U;T_U\n0;1,0;24,0;25,5\n1;1,0;24,0;25,5\n2;0,0;24,0;25,5\n")
+    notes: list[str] = []
+    rec = read_recording(p, notes=notes)
+    assert rec["T_U"].tolist() == [25.5] * 3
+    assert any("semicolon" in n for n in notes) and any("decimal comma" in n for n in notes)
+    # a delimiter passed that does not fit: the message says which one was tried and how to pass
+    out = tmp_path / "sim.csv"
+    argv = ["simulate", "axt211", "--inputs", str(p), "--out", str(out)]
+    assert main([*argv, "--delimiter", ","]) == 2
+    _one_error_line(capsys, "delimiter comma (',')", "--delimiter ';'", "--decimal ','")
+    assert not out.exists()
+    assert main([*argv, "--delimiter", "semicolon", "--decimal", ","]) == 0
+    printed = capsys.readouterr().out
+    assert out.is_file() and "note:" not in printed  # given, not detected: no note
+    out.unlink()
+    assert main(argv) == 0
+    assert "detected the field delimiter semicolon" in capsys.readouterr().out
+
+
+def test_time_column_named_otherwise(tmp_path, capsys):
+    p = tmp_path / "tc.csv"
+    p.write_text("Time,u,k_U,T_U\n0,1,24,25\n1,1,24,25\n2,0,24,25\n")
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", "axt211", "--inputs", str(p), "--out", str(out)]) == 0
+    assert "took column 'Time' as the time [s]" in capsys.readouterr().out
+    q = tmp_path / "stamp.csv"
+    q.write_text("stamp,clock,u,k_U,T_U\n0,5,1,24,25\n1,6,1,24,25\n2,7,0,24,25\n")
+    argv = ["simulate", "axt211", "--inputs", str(q), "--out", str(tmp_path / "s2.csv")]
+    assert main(argv) == 2
+    _one_error_line(capsys, "no time column", "--time-column NAME")
+    assert main([*argv, "--time-column", "stamp"]) == 0
+    assert main([*argv, "--time-column", "nope"]) == 2
+    _one_error_line(capsys, "no time column 'nope'", "'stamp', 'clock'")
+
+
+def test_timestamp_jitter_is_resampled_with_a_note_and_large_steps_are_named(tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    t = np.arange(200.0) + rng.uniform(-0.02, 0.02, 200)
+    t[0] = 0.0
+    rows = "\n".join(f"{x:.4f},{1.0 if i < 100 else 0.0},24,25" for i, x in enumerate(t))
+    p = tmp_path / "jit.csv"
+    p.write_text("time,u,k_U,T_U\n" + rows + "\n")
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", "axt211", "--inputs", str(p), "--out", str(out)]) == 0
+    note = capsys.readouterr().out
+    assert "timestamp jitter" in note and "uniform 1 s grid" in note
+    from thermogym.recording import Recording
+
+    rec = Recording([0.0, 1.0, 2.0, 3.5, 4.5], {"u": np.zeros(5)})
+    with pytest.raises(Exception, match=r"step of 1\.5 s from time 2 s to 3\.5 s") as e:
+        rec.dt  # noqa: B018
+    assert "time[" not in str(e.value) and "unlike the first" not in str(e.value)
+
+
+def test_messages_show_plain_numbers_and_separate_units():
+    from thermogym._checks import show, with_unit
+    from thermogym._cli.common import one_line
+
+    assert one_line("value is np.float64(30.0), expected < 10") == "value is 30.0, expected < 10"
+    assert show(np.float64(2.0), "1") == "2.0" and with_unit("2", "1") == "2"
+    assert with_unit("30", "K") == "30 K"
+
+
+def test_progress_bars_only_on_a_terminal(tmp_path, capsys):
+    from thermogym._cli.common import progress_wanted
+    from thermogym.demo.core import DemoContext
+
+    ctx = DemoContext(tmp_path, progress=True)
+    assert list(ctx.bar(range(3), "items")) == [0, 1, 2]
+    err = capsys.readouterr().err
+    assert "\r" not in err and "\x1b[" not in err and "items" not in err
+    assert progress_wanted(None) is False and progress_wanted(True) is False  # captured: no tty
+
+
+# ---------------------------------------------------------------- the output guard
+def test_outputs_are_checked_before_any_work(axt_csv, tmp_path, capsys):
+    argv = ["simulate", "axt211", "--inputs", str(axt_csv)]
+    cases = [
+        (["--out", str(tmp_path / "nowhere" / "s.csv")], ["does not exist; create it first"]),
+        (["--out", str(tmp_path)], ["is a folder; expected a file name"]),
+        (["--out", str(tmp_path / "s.txt")], [".csv or .csv.gz or .parquet"]),
+        (["--out", str(tmp_path / "s.csv"), "--plot", str(tmp_path / "p.txt")], ["--plot"]),
+    ]
+    for extra, needles in cases:
+        assert main([*argv, *extra]) == 2
+        _one_error_line(capsys, *needles)
+    same = str(tmp_path / "r.json")
+    diag = ["diagnose", "--model", "strut", "--train", str(axt_csv), "--validate", str(axt_csv)]
+    assert main([*diag, "--out", same, "--augmented-fit", same]) == 2
+    _one_error_line(capsys, "--augmented-fit and --out name the same path")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ax.csv"]
+
+
+def test_a_failed_run_replaces_nothing(axt_csv, tmp_path, capsys):
+    out = tmp_path / "sim.csv"
+    out.write_text("time,x\n0,1\n")
+    # the plot fails after the simulation: the recording is not published either
+    bad = tmp_path / "p.png"
+    bad.mkdir()
+    assert (
+        main(
+            ["simulate", "axt211", "--inputs", str(axt_csv), "--out", str(out), "--plot", str(bad)]
+        )
+        == 2
+    )
+    capsys.readouterr()
+    assert out.read_text() == "time,x\n0,1\n"
+    from thermogym._cli.common import OutputPlan
+
+    plan = OutputPlan()
+    plan.file("--out", out, "csv")
+    with pytest.raises(RuntimeError):
+        with plan:
+            plan.path("--out").write_text("half")
+            raise RuntimeError("the command failed")
+    assert out.read_text() == "time,x\n0,1\n"
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".thermogym")]
+    with OutputPlan() as plan2:
+        plan2.file("--out", out, "csv")
+        plan2.path("--out").write_text("new")
+        assert out.read_text() == "time,x\n0,1\n"  # replaced only at the end
+    assert out.read_text() == "new"
+
+
+def test_dataset_recordings_are_accepted_everywhere(tmp_path, capsys, strut_csv):
+    fit = tmp_path / "f.json"
+    assert (
+        main(
+            [
+                "identify",
+                "foptd",
+                "dataset:hair_dryer",
+                "--operating-point",
+                "mean",
+                "--out",
+                str(fit),
+            ]
+        )
+        == 0
+    )
+    capsys.readouterr()
+    assert (
+        main(
+            [
+                "simulate",
+                "--params",
+                str(fit),
+                "--inputs",
+                "dataset:hair_dryer",
+                "--out",
+                str(tmp_path / "s.csv"),
+            ]
+        )
+        == 0
+    )
+    assert "NRMSE fit" in capsys.readouterr().out
+    assert main(["identify", "foptd", "dataset:nope", "--out", str(tmp_path / "g.json")]) == 2
+    _one_error_line(capsys, "unknown data set 'nope'", "hair_dryer")
+    # --prepare on every identify method, recordings after it are still recordings
+    argv = ["identify", "montecarlo", "--model", "strut", "--free", "r_motor", "--samples", "20"]
+    argv += ["--no-progress", "--out", str(tmp_path / "g.json"), "--prepare", "outliers=false"]
+    assert main([*argv, str(strut_csv)]) == 0
+    assert json.loads((tmp_path / "g.json").read_text())["model"] == "strut"
+    assert main([*argv, "hampel_window=0", str(strut_csv)]) == 2
+    _one_error_line(capsys, "hampel_window=0", ">= 1")
+
+
+# ---------------------------------------------------------------- demo --only
+def _stub_stages(calls: dict[str, int], interrupt: bool = False):
+    from thermogym.demo import Stage
+    from thermogym.demo.core import StageSkipped
+
+    def run_a(ctx, res):
+        calls["a"] = calls.get("a", 0) + 1
+        ctx.path("data", "a.txt").write_text("from a")
+        ctx.products["a"] = "from a"
+        res.text = "stage a ran"
+
+    def load_a(ctx):
+        p = ctx.out / "data" / "a.txt"
+        if not p.is_file():
+            raise StageSkipped("no a.txt")
+        ctx.products["a"] = p.read_text()
+
+    def run_b(ctx, res):
+        ctx.need("a")
+        calls["b"] = calls.get("b", 0) + 1
+        ctx.path("b", "b.txt").write_text(ctx.products["a"] + " via b")
+        if interrupt:
+            raise KeyboardInterrupt
+        res.text = "stage b ran"
+
+    return [Stage("a", "A", run_a, load_a), Stage("b", "B", run_b)]
+
+
+def test_demo_only_keeps_and_reuses_earlier_stages(tmp_path):
+    from thermogym.demo import run_demo
+
+    calls: dict[str, int] = {}
+    run_demo(tmp_path, stages=_stub_stages(calls), progress=False)
+    man0 = json.loads((tmp_path / "manifest.json").read_text())["stages"]
+    a_files = _digest(tmp_path / "data")
+    # --only b: a is not run, its outputs are reused, its files and section stay
+    res = run_demo(tmp_path, stages=_stub_stages(calls), only=["b"], progress=False)
+    assert [(r.key, r.status) for r in res] == [("b", "ok")] and calls == {"a": 1, "b": 2}
+    assert _digest(tmp_path / "data") == a_files
+    man = json.loads((tmp_path / "manifest.json").read_text())["stages"]
+    assert man["a"] == man0["a"] and man["b"]["ran_at"]
+    md = (tmp_path / "report.md").read_text()
+    assert "stage a ran" in md and "stage b ran" in md
+    assert f"this section and its files are from the run of {man0['a']['ran_at']}" in md
+    # --only b when a's outputs are gone: b is skipped and keeps its earlier files and section
+    (tmp_path / "data" / "a.txt").unlink()
+    b_files = _digest(tmp_path / "b")
+    res = run_demo(tmp_path, stages=_stub_stages(calls), only=["b"], progress=False)
+    assert res[0].status == "skipped" and "no a.txt" in res[0].error
+    assert _digest(tmp_path / "b") == b_files
+    man2 = json.loads((tmp_path / "manifest.json").read_text())["stages"]
+    assert man2["b"]["files"] == man["b"]["files"] and "needs ['a']" in man2["b"]["skipped"]
+    md = (tmp_path / "report.md").read_text()
+    assert "stage b ran" in md and "Skipped this time" in md
+
+
+def test_demo_interrupted_stage_publishes_nothing_and_the_report_stays_consistent(tmp_path):
+    from thermogym.demo import run_demo
+
+    calls: dict[str, int] = {}
+    run_demo(tmp_path, stages=_stub_stages(calls), progress=False)
+    before = _digest(tmp_path / "b")
+    man0 = json.loads((tmp_path / "manifest.json").read_text())["stages"]
+    with pytest.raises(KeyboardInterrupt):
+        run_demo(tmp_path, stages=_stub_stages(calls, interrupt=True), progress=False)
+    assert _digest(tmp_path / "b") == before
+    man = json.loads((tmp_path / "manifest.json").read_text())["stages"]
+    assert man["b"] == man0["b"] and man["a"]["ran_at"] >= man0["a"]["ran_at"]
+    md = (tmp_path / "report.md").read_text()
+    assert "Interrupted this time" in md and "stage b ran" in md  # the earlier section, marked
+    assert not list(tmp_path.glob(".staging-*"))
+
+
+def test_demo_reuses_real_rig_recordings(tmp_path):
+    from thermogym.demo import STAGES, Stage, run_demo
+
+    seen = {}
+
+    def uses_recordings(ctx, res):
+        ctx.need("recordings")
+        seen.update({k: len(v) for k, v in ctx.products["recordings"].items()})
+
+    stages = [STAGES[0], Stage("use", "Use", uses_recordings)]
+    assert (
+        run_demo(tmp_path, quick=True, only=["rigs"], stages=stages, progress=False)[0].status
+        == "ok"
+    )
+    rec_files = _digest(tmp_path / "recordings")
+    res = run_demo(tmp_path, quick=True, only=["use"], stages=stages, progress=False)
+    assert res[0].status == "ok"
+    assert seen["strut/steps"] == 3 and seen["spindle/run-in"] == 2 and seen["axt211/steps"] == 9
+    assert _digest(tmp_path / "recordings") == rec_files
+    # another seed: the earlier recordings are not this run's, so they are not reused
+    res = run_demo(tmp_path, quick=True, seed=1, only=["use"], stages=stages, progress=False)
+    assert res[0].status == "skipped" and "from seed 0" in res[0].error
+
+
+def test_spreadsheet_exports_read_or_named(tmp_path):
+    from thermogym.errors import RecordingError
+    from thermogym.recording import read_recording
+
+    rows = "0,1,2\n1,1,3\n2,0,2\n"
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbftime,u,y\n" + rows.encode())
+    assert read_recording(tmp_path / "bom.csv").columns == ("u", "y")
+    (tmp_path / "c.csv").write_text("# logged 2024\n# by hand\ntime,u,y\n" + rows)
+    notes: list[str] = []
+    assert read_recording(tmp_path / "c.csv", notes=notes).n_samples == 3
+    assert notes == ["skipped 2 comment line(s) (# ...) before the header"]
+    (tmp_path / "u.csv").write_text("time,u,y\ns,V,V\n" + rows)
+    with pytest.raises(RecordingError, match="units row"):
+        read_recording(tmp_path / "u.csv")
+    (tmp_path / "t.csv").write_text("time,u,y,\n0,1,2,\n1,1,3,\n")
+    with pytest.raises(RecordingError, match="empty name"):
+        read_recording(tmp_path / "t.csv")
