@@ -16,7 +16,7 @@ from thermogym.identification.uncertainty import estimate_input_noise
 from thermogym.models.axt211 import AXT211
 from thermogym.models.strut import StrutModel
 from thermogym.recording import Recording, write_recording
-from thermogym.rigs import get_rig, run_experiment, to_recording
+from thermogym.rigs import get_rig, to_recording
 
 SPECIMEN = {"r_motor": 1.6, "r_bearing": 0.7, "r_nut": 1.4, "r_spindle_air": 1.1, "r_tube_air": 0.9}
 RATIOS = tuple(SPECIMEN)
@@ -144,9 +144,18 @@ def test_external_sim_model_gets_a_fit_result():
 
 
 def test_fixed_log_scaled_and_bounded_parameters_are_honoured():
-    recs = run_experiment(
-        "axt211", "steps", voltages=[24.0], ambients=[25.0], on_s=900, off_s=900, seed=0
+    # a known C_G needs a truth in the model class: the AXT211 model's own step with
+    # thermocouple noise (the rig is a plant of its own)
+    m, rng = AXT211(), np.random.default_rng(0)
+    u = np.column_stack(
+        [np.r_[np.ones(900), np.zeros(900)], np.full(1800, 24.0), np.full(1800, 25.0)]
     )
+    y = m.simulate(u, 1.0).outputs[0]
+    cols = {"u": u[:, 0], "k_U": u[:, 1], "T_U": u[:, 2]}
+    cols.update(
+        {k: y[:, i] + 0.1 * rng.standard_normal(1800) for i, k in enumerate(m.output_names)}
+    )
+    recs = [Recording(np.arange(1800.0), cols, experiment_id="axt211-model-step")]
     pb = Problem(
         AXT211(),
         recs,
