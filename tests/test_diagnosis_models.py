@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _model_plants import with_hidden_node
 
 import thermogym.identification.diagnosis  # noqa: F401  (registers the "augmented" model)
 from thermogym.errors import ConfigError, SimulationError
@@ -13,7 +14,6 @@ from thermogym.models.fastnet import LossNetwork, fast_or_none
 from thermogym.models.linear import FOPTDModel
 from thermogym.models.registry import get_model
 from thermogym.rigs import get_rig, run_experiment
-from thermogym.rigs._legacy import with_hidden_node
 from thermogym.rigs.base import first_order_lag
 
 _BASE = {

@@ -28,6 +28,7 @@ SHORT = {
     "thermogym/SpindleThermal-v0": {"episode_s": 1800.0},
     "thermogym/StrutThermal-v0": {"episode_s": 1800.0},
     "thermogym/TCLab-v0": {"episode_s": 30.0},
+    "thermogym/IdentifiedPlant-v0": {"episode_steps": 40},
 }
 
 

@@ -65,12 +65,7 @@ NEVER_IMPORTS = {"models": ("matplotlib",), "estimation": ("matplotlib",)}
 #: Rule violations known today, each with the issue that removes it; the stale-exception
 #: test fails once one no longer occurs, so that it is deleted here.
 KNOWN_VIOLATIONS: dict[tuple[str, str], str] = {
-    # the strut and spindle rigs still stand on a model through the transitional ModelRig:
-    # issue 14 removes it with their true plants (the AXT211 and room rigs have theirs)
-    ("thermogym.rigs._legacy", "thermogym.models.base.Model"): "issue 14",
-    ("thermogym.rigs._legacy", "thermogym.models.registry.get_model"): "issue 14",
-    ("thermogym.rigs._legacy", "thermogym.models.thermal_network.NetworkArrays"): "issue 14",
-    ("thermogym.rigs._legacy", "thermogym.models.thermal_network.ThermalNetworkModel"): "issue 14",
+    # (issue 14 removed the transitional ModelRig with the strut's and spindle's true plants)
 }
 #: Import cycles known today (the modules of each strongly connected component).
 KNOWN_CYCLES: dict[frozenset[str], str] = {

@@ -17,11 +17,11 @@ import thermogym.rigs
 RIGS = Path(thermogym.rigs.__file__).parent
 #: Names a rig may take from thermogym.models: signal-name tuples and the signal record.
 ALLOWED_NAMES = {"Signal", "STRUT_OUTPUTS", "SPINDLE_OUTPUTS"}
-#: The transitional ModelRig (a rig built on a model), the one rig module that imports one.
-PENDING = {"_legacy.py"}
-#: Rigs still on ModelRig (the strut and spindle until their true plants land); remove an
-#: entry when its module no longer uses it, and PENDING with the last one.
-LEGACY_USERS = {"strut.py", "spindle.py"}
+#: The transitional ModelRig (a rig built on a model): removed with its last user (every rig
+#: has a true plant of its own now).
+PENDING: set[str] = set()
+#: Rigs still on ModelRig: none.
+LEGACY_USERS: set[str] = set()
 
 
 def _model_imports(path: Path) -> list[str]:
@@ -88,5 +88,5 @@ def test_true_plant_rigs_build_no_model():
     from thermogym.rigs import get_rig
     from thermogym.rigs.base import TruePlant
 
-    for name in ("axt211", "room"):
+    for name in ("axt211", "room", "strut", "spindle"):
         assert isinstance(get_rig(name).plant(), TruePlant)

@@ -143,7 +143,9 @@ def test_physical_effect_is_switched_on_in_the_plant():
     sat = get_rig("strut", ["input_dependent_heat_transfer"]).run(
         "steps", seed=2, feed_rates=[30.0]
     )[0]
-    assert sat.truth["T_nut"][-1] < lin.truth["T_nut"][-1] - 1.0
+    # the strut rig's own forced convection is always there; the concealed one is the drive
+    # motor's shaft fan (self-ventilated motor), which cools the drive
+    assert sat.truth["T_drive"][-1] < lin.truth["T_drive"][-1] - 1.0
 
 
 def test_written_recordings_read_back_with_manifest(tmp_path):

@@ -8,10 +8,23 @@ import pytest
 from thermogym.models.linear import StateSpaceModel
 from thermogym.studies import spindle as ss
 
+#: The rig's physics that no LTI model can hold: friction falling as the oil warms, and the
+#: rotating parts' convection switching with the speed (heating and cooling are no mirror
+#: images). Off, the rig is as LTI as paper 001 finds its spindle (section 3.1), and the
+#: pipeline must reach the paper's accuracy; on, the figures are measured by
+#: benchmarks/rig_fidelity_strut_spindle.py.
+LTI_BREAKING = ("lubricant_viscosity", "rotating_convection")
+#: Across speeds an LTI model also needs heat in proportion to the speed (the rig's bearing
+#: friction grows as n^1.6 and with the preload, so a model from one speed mispredicts
+#: another's gain; the paper found the speed's influence negligible, section 3.1).
+SPEED_LINEAR = (*LTI_BREAKING, "friction_power_law", "thermal_preload")
+
 
 @pytest.fixture(scope="module")
 def day6000():
-    return ss.spindle_data(seed=2, speeds=(6000,), validation_speeds=(), raw=False)
+    return ss.spindle_data(
+        seed=2, speeds=(6000,), validation_speeds=(), raw=False, off=LTI_BREAKING
+    )
 
 
 def test_prepared_days_are_temperature_rises_at_1hz(day6000):
@@ -43,7 +56,9 @@ def test_virtual_sensor_fit_for_the_kalman_filter(day6000):
 
 @pytest.mark.slow
 def test_study_on_raw_rig_data():
-    data = ss.spindle_data(seed=0, speeds=(5000, 7000), validation_speeds=(4500, 7800))
+    data = ss.spindle_data(
+        seed=0, speeds=(5000, 7000), validation_speeds=(4500, 7800), off=SPEED_LINEAR
+    )
     assert data.raw_rows > 700_000
     speeds, M = ss.va_matrix(data, 8, input_set="speed+ambient")
     assert speeds == [5000, 7000] and M.shape == (2, 2) and np.all(M > 0.98)

@@ -40,6 +40,11 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("thermogym._cli.simulate", "simulate a model on the inputs of a recording"),
     "experiment": ("thermogym._cli.experiment", "run a virtual test rig protocol"),
     "identify": ("thermogym._cli.identify", "fit a model to recordings, write a FitResult"),
+    "compare": (
+        "thermogym._cli.compare",
+        "several fitted models on one recording (fit per output)",
+    ),
+    "resid": ("thermogym._cli.resid", "residual whiteness and input cross-correlation tests"),
     "diagnose": ("thermogym._cli.diagnose", "locate a model mismatch and name the missing physics"),
     "virtual-sensor": ("thermogym._cli.virtual_sensor", "estimate hidden temperatures (Kalman)"),
     "firmware": ("thermogym._cli.firmware", "export the virtual sensor as C firmware"),

@@ -20,7 +20,7 @@ The JSON file is a single object::
      "data": [{"experiment_id": ..., "fingerprint": ..., "n_samples": ...,
                "source": ..., "role": "train"}],
      "package_version": "0.1.0", "created": "2025-01-01T00:00:00+00:00",
-     "notes": ""}
+     "notes": "", "warnings": [{"code": "gain_sign", "message": "..."}]}
 
 JSON has no NaN or infinity: NaN (in standard errors, metrics, arrays) is
 written as ``null`` and read back as NaN; an infinite bound is written as
@@ -171,6 +171,9 @@ class FitResult:
         ISO 8601 time of creation (default: now, UTC).
     notes : str
         Free text.
+    warnings : list of dict
+        What the identification warned about, ``{"code", "message"}`` each
+        (:mod:`thermogym.identification.advice`).
 
     Raises
     ------
@@ -206,6 +209,7 @@ class FitResult:
     package_version: str = field(default_factory=_package_version)
     created: str = field(default_factory=_now)
     notes: str = ""
+    warnings: list[dict[str, str]] = field(default_factory=list)
 
     # ------------------------------------------------------------ validation
     def __post_init__(self) -> None:
@@ -256,6 +260,38 @@ class FitResult:
         self._covariance()
         check_known("covariance_names", self.covariance_names)
         self.data = self._data(self.data)
+        self.warnings = self._warnings(self.warnings)
+
+    @staticmethod
+    def _warnings(value: Any) -> list[dict[str, str]]:
+        if not isinstance(value, list | tuple):
+            raise ConfigError(
+                f"FitResult.warnings is a {type(value).__name__}, expected a list of "
+                "{'code', 'message'} dicts"
+            )
+        out = []
+        for i, w in enumerate(value):
+            if hasattr(w, "to_dict"):
+                w = w.to_dict()
+            if (
+                not isinstance(w, Mapping)
+                or not isinstance(w.get("code"), str)
+                or not isinstance(w.get("message"), str)
+            ):
+                raise ConfigError(
+                    f"FitResult.warnings[{i}] is {w!r:.80}; expected a dict with the strings "
+                    "'code' and 'message'"
+                )
+            out.append({"code": w["code"], "message": w["message"]})
+        return out
+
+    def add_warnings(self, warnings: Sequence[Any]) -> None:
+        """Append warnings (``FitWarning`` or ``{"code", "message"}``), skipping repeats."""
+        have = {(w["code"], w["message"]) for w in self.warnings}
+        for w in self._warnings(list(warnings)):
+            if (w["code"], w["message"]) not in have:
+                self.warnings.append(w)
+                have.add((w["code"], w["message"]))
 
     @staticmethod
     def _float_map(what: str, value: Any, *, allow_nan: bool) -> dict[str, float]:
@@ -603,6 +639,15 @@ class FitResult:
             model = self.build_model()
         else:
             self._check_model(model)
+        missing = [n for n in model.param_names if n not in self.parameters]
+        if missing:
+            shown = missing if len(missing) <= 12 else [*missing[:12], "..."]
+            raise ParameterError(
+                f"the FitResult of model {self.model!r} lacks parameter(s) {shown} "
+                f"({len(missing)} of {len(model.param_names)}); a FitResult gives every "
+                "parameter of its model (a missing one would silently take the nominal value): "
+                "refit, or write the values in"
+            )
         return model.theta(self.parameters)
 
     def sample(

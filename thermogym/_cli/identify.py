@@ -5,6 +5,8 @@ The methods are implemented by handler modules that parse their own options
 
 * linear identification (issue "Identification I"): ``foptd``, ``n4sid``, ``rls``
   in :mod:`thermogym._cli.identify_linear`;
+* prediction-error families (issue 16): ``arx``, ``armax``, ``oe``, ``bj``,
+  ``sopdt``, ``ssest``, ``auto`` in :mod:`thermogym._cli.identify_pem`;
 * the identification coordinator (issue "Identification II"): ``greybox``,
   ``montecarlo``, ``anneal``, ``evolution``, ``cmaes`` in
   :mod:`thermogym._cli.identify_global`.
@@ -23,6 +25,13 @@ HANDLERS: dict[str, str] = {
     "foptd": "thermogym._cli.identify_linear",
     "n4sid": "thermogym._cli.identify_linear",
     "rls": "thermogym._cli.identify_linear",
+    "arx": "thermogym._cli.identify_pem",
+    "armax": "thermogym._cli.identify_pem",
+    "oe": "thermogym._cli.identify_pem",
+    "bj": "thermogym._cli.identify_pem",
+    "sopdt": "thermogym._cli.identify_pem",
+    "ssest": "thermogym._cli.identify_pem",
+    "auto": "thermogym._cli.identify_pem",
     "greybox": "thermogym._cli.identify_global",
     "montecarlo": "thermogym._cli.identify_global",
     "anneal": "thermogym._cli.identify_global",

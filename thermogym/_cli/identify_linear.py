@@ -33,6 +33,8 @@ from thermogym._cli.data import (
     parse_prepare,
 )
 from thermogym.errors import ConfigError
+from thermogym.identification.advice import DEFAULT_TOLERANCE, parse_expect_sign
+from thermogym.identification.linear_fit import X0_CHOICES
 
 METHODS = ("foptd", "n4sid", "rls")
 
@@ -80,8 +82,31 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     add_data_options(p)
     p.add_argument(
         "--operating-point",
-        choices=("none", "initial", "mean"),
-        help="subtracted from each experiment (default: initial for foptd/rls, none for n4sid)",
+        choices=("estimate", "none", "initial", "mean", "rest")
+        if method == "foptd"
+        else ("auto", "none", "initial", "mean")
+        if method == "n4sid"
+        else ("none", "initial", "mean"),
+        help="foptd: 'estimate' (default) fits the output offset and the initial lag, no "
+        "sample is taken as rest; the others subtract from each experiment its first samples "
+        "(initial, paper 000), its means (mean) or nothing (none; rest: inputs from zero). "
+        "rls: default initial; n4sid: default auto, the better of none (absolute levels: a "
+        "plant at rest at zero input) and mean (MATLAB's detrend) on held-out folds",
+    )
+    p.add_argument(
+        "--x0",
+        choices=X0_CHOICES,
+        default="auto",
+        help="initial state when the fit is simulated on the recordings (metrics, plots): "
+        "estimate (least squares on the outputs, as MATLAB's compare), steady (settled at the "
+        "first input), zero (at rest at the operating point); auto (default): estimate",
+    )
+    p.add_argument(
+        "--expect-sign",
+        metavar="IN=+|IN:OUT=-",
+        help="declared sign of steady-state gains, comma separated (e.g. P_heater=+); a gain "
+        "of the other sign is warned about. Without it: heaters (power units) and temperature "
+        "inputs must raise a temperature output; 'none' checks nothing",
     )
     p.add_argument("--out", required=True, help="FitResult JSON to write")
     p.add_argument("--plots", help="folder for figures")
@@ -120,7 +145,14 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         p.add_argument("--decimate", default="auto", help="factor or 'auto' (default)")
         p.add_argument("--weighting", choices=("moesp", "cva", "n4sid"), default="moesp")
         p.add_argument("--feedthrough", action="store_true", help="estimate D")
-        p.add_argument("--x0", choices=("estimate", "zero"), default="estimate")
+        p.add_argument(
+            "--cv-tolerance",
+            type=number(0.0, 100.0, what="a tolerance in percentage points"),
+            default=100 * DEFAULT_TOLERANCE,
+            metavar="PERCENT",
+            help="the order is the smallest whose validation fit is within this many "
+            "percentage points of the best (default %(default)g)",
+        )
         p.add_argument("--no-noise-model", action="store_true", help="K = 0")
     return p
 
@@ -145,21 +177,42 @@ def _signals(args: argparse.Namespace, rec: Any) -> tuple[list[str], list[str]]:
     return inputs, outputs
 
 
-def _report(fit: Any) -> None:
+def _report(fit: Any, x0: str) -> None:
+    from thermogym.identification.metrics import fit_text
+
+    how = {
+        "auto": "estimated from each recording's outputs",
+        "estimate": "estimated from each recording's outputs",
+        "steady": "settled at the first input",
+        "zero": "at rest at the operating point",
+    }[x0]
+    print(f"  fit (NRMSE fit, %; initial state {how}, --x0 {x0}):")
     for part in ("train", "validation"):
         m = fit.metrics.get(part)
         if not m:
             continue
-        print(f"  {part}: MNRMSE {100 * m['mnrmse']:.2f} %")
+        print(f"  {part}: mean fit {fit_text(m['mnrmse'])}")
         for eid, rep in m["experiments"].items():
-            worst = min(rep["nrmse"].items(), key=lambda kv: kv[1])
-            print(
-                f"    {eid:<32} MNRMSE {100 * rep['mnrmse']:7.2f} %   "
-                f"(lowest {worst[0]} {100 * worst[1]:.2f} %)"
-            )
+            per = "  ".join(f"{c} {fit_text(v)}" for c, v in rep["nrmse"].items())
+            print(f"    {eid:<32} {per}")
 
 
-def _plot_fits(fit: Any, recs: list[Any], folder: Path, tag: str) -> list[Path]:
+def _warn(fit: Any, recs: list[Any], args: argparse.Namespace, extra: list[Any]) -> None:
+    """Add the generic checks and ``extra`` to the FitResult and print every warning."""
+    import sys
+
+    from thermogym.identification.advice import check_fit
+
+    units: dict[str, str] = {}
+    for r in recs:
+        units.update({c: u for c, u in r.units.items() if u})
+    fit.warnings = [w for w in fit.warnings if w["code"] not in ("fit_below_zero", "gain_sign")]
+    fit.add_warnings([*extra, *check_fit(fit, units=units, expect=args.expect)])
+    for w in fit.warnings:
+        print(f"warning: {w['message']}", file=sys.stderr)
+
+
+def _plot_fits(fit: Any, recs: list[Any], folder: Path, tag: str, x0: str) -> list[Path]:
     from thermogym.identification.linear_fit import predict_fit
     from thermogym.identification.linear_plots import plot_fit
     from thermogym.identification.metrics import nrmse
@@ -168,7 +221,7 @@ def _plot_fits(fit: Any, recs: list[Any], folder: Path, tag: str) -> list[Path]:
     outs = list(model.output_names)
     paths = []
     for rec in recs:
-        yh = predict_fit(fit, rec)
+        yh = predict_fit(fit, rec, x0=x0)
         fits = {c: float(nrmse(rec[c], yh[:, j])) for j, c in enumerate(outs)}
         name = f"{tag}_{rec.experiment_id or 'recording'}.png"
         paths.append(
@@ -185,6 +238,7 @@ def main(method: str, argv: list[str]) -> int:
         raise ConfigError(f"unknown linear method {method!r}; expected one of {METHODS}")
     args = build_parser(method).parse_args(hoist_recordings(argv))
     args.command = "identify"
+    args.expect = parse_expect_sign(args.expect_sign)  # refused early
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
     decimate_option(args)
@@ -226,6 +280,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             )
     plots = plan.get("--plots")
     figures: list[Path] = []
+    extra: list[Any] = []
     if method == "foptd":
         from thermogym.identification.foptd import fit_foptd
 
@@ -236,7 +291,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             disturbances=dist,
             max_delay_s=args.max_delay_s,
             criterion=args.criterion,
-            operating_point_mode=args.operating_point or "initial",
+            operating_point_mode=args.operating_point or "estimate",
             validate=vals,
         )
         fit = res.fit
@@ -254,12 +309,20 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     elif method == "rls":
         fit = _run_rls(args, train, vals, inputs, outputs, dist)
     else:
-        fit = _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures)
-    _report(fit)
+        fit, extra = _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures)
+    if args.x0 != "auto":
+        from thermogym.identification.linear_fit import evaluate_fit
+
+        fit.metrics["train"] = evaluate_fit(fit, train, x0=args.x0)
+        if vals:
+            fit.metrics["validation"] = evaluate_fit(fit, vals, x0=args.x0)
+    fit.settings["x0_evaluation"] = args.x0
+    _report(fit, args.x0)
+    _warn(fit, train + vals, args, extra)
     fit.save(plan.path("--out"))
     if plots:
-        figures += _plot_fits(fit, train, plots, "train")
-        figures += _plot_fits(fit, vals, plots, "validation")
+        figures += _plot_fits(fit, train, plots, "train", args.x0)
+        figures += _plot_fits(fit, vals, plots, "validation", args.x0)
         for f in figures:
             print(f"  figure: {plan.final(f)}")
     print(f"wrote {args.out}")
@@ -334,44 +397,82 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
 
 
 def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # type: ignore[no-untyped-def]
-    from thermogym.identification.crossval import cross_validate_order, split_recording
+
+    from thermogym.identification.crossval import cross_validate_order, make_folds
+    from thermogym.identification.metrics import fit_text
     from thermogym.identification.n4sid import n4sid
 
     decimate: int | str = args.decimate
-    opm = args.operating_point or "none"
+    opm = args.operating_point or "auto"
+    tol = float(args.cv_tolerance)
     common = {
         "disturbances": dist,
         "horizon": args.horizon,
         "decimate": decimate,
         "weighting": args.weighting,
         "feedthrough": args.feedthrough,
-        "x0": args.x0,
-        "operating_point_mode": opm,
+        "x0": "zero" if args.x0 == "zero" else "estimate",
     }
     cv = None
     order = args.order
     orders = _range(args.orders) if args.order is None else range(args.order, args.order + 1)
-    if args.folds:
-        k = int(args.folds)
-        if len(train) == 1:
-            folds = [[p] for p in split_recording(train[0], k)]
-        elif len(train) >= k:
-            folds = [train[f::k] for f in range(k)]
+    notes: list[Any] = []
+    folds = None
+    if args.folds is not None or opm == "auto":
+        from thermogym.identification.advice import FitWarning
+        from thermogym.identification.linear_fit import exogenous_roles, signal_arrays
+
+        signal_arrays(train, inputs, outputs, min_samples=8, what="N4SID")  # checked first
+
+        ins, dis = exogenous_roles(train[0], inputs, dist)
+        folds, texts = make_folds(train, args.folds or 2, ins + dis)
+        notes += [FitWarning("cv_fallback", t) for t in texts]
+        for t in texts:
+            print(f"  note: {t}")
+    cvs = {}
+    if folds is not None and (args.folds is not None or opm == "auto"):
+        for mode in ("none", "mean") if opm == "auto" else (opm,):
+            cvs[mode] = cross_validate_order(
+                folds,
+                inputs,
+                outputs,
+                orders,
+                scheme=args.scheme,
+                tolerance=tol / 100,
+                operating_point_mode=mode,
+                **common,
+            )
+    if opm == "auto":
+        # the operating point by cross-validation: "none" keeps the absolute levels (a plant
+        # at rest at zero input: rises above ambient, an ambient input), "mean" removes them
+        # (an output with an offset of its own, MATLAB's detrend); the better held-out fit wins
+        if cvs:
+            score = {m: float(c.va[list(c.orders).index(c.chosen_order)]) for m, c in cvs.items()}
+            opm = max(score, key=lambda m: (score[m], m == "mean"))
+            print(
+                f"operating point: {opm} (cross-validated: none VA {fit_text(score['none'])}, "
+                f"mean VA {fit_text(score['mean'])}; --operating-point sets it)"
+            )
         else:
-            raise ConfigError(f"--folds {k} with {len(train)} recordings: give 1 or at least {k}")
-        cv = cross_validate_order(folds, inputs, outputs, orders, scheme=args.scheme, **common)
-        order = cv.best_order
+            opm = "mean"
+            print(
+                "operating point: mean (no folds to cross-validate it; --operating-point sets it)"
+            )
+    common["operating_point_mode"] = opm
+    if args.folds is not None and opm in cvs:
+        cv = cvs[opm]
+        order = cv.chosen_order
+        notes += cv.warnings()
+        k = len(cv.folds)
+        i_c = list(cv.orders).index(order)
         print(
             f"{k}-fold cross-validation ({args.scheme}) over orders {orders.start}.."
-            f"{orders.stop - 1} in {cv.seconds['total']:.2f} s: n* = {order} "
-            f"(TA {100 * cv.ta[list(cv.orders).index(order)]:.2f} %, "
-            f"VA {100 * cv.va[list(cv.orders).index(order)]:.2f} %)"
+            f"{orders.stop - 1} in {cv.seconds['total']:.2f} s: n* = {order}, the smallest "
+            f"order within {tol:g} % of the best validation fit (TA {fit_text(cv.ta[i_c])}, "
+            f"VA {fit_text(cv.va[i_c])}; argmax VA: {cv.best_order})"
         )
         for row in cv.table():
-            print(
-                f"    n = {row['order']:3d}  TA {100 * row['TA']:7.2f} %  "
-                f"VA {100 * row['VA']:7.2f} %"
-            )
+            print(f"    n = {row['order']:3d}  TA {fit_text(row['TA'])}  VA {fit_text(row['VA'])}")
     res = n4sid(
         train,
         inputs,
@@ -385,7 +486,9 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     fit = res.fit
     if cv is not None:
         fit.settings["cross_validation"] = cv.to_dict()
-        fit.settings["order_source"] = f"{len(cv.folds)}-fold cross-validation (eq 10)"
+        fit.settings["order_source"] = (
+            f"{len(cv.folds)}-fold cross-validation (smallest order within {tol:g} % of the best)"
+        )
     print(
         f"N4SID order {res.order} ({fit.settings['order_source']}), horizon "
         f"{res.decomposition.horizon}, decimation {res.decomposition.decimate}, "
@@ -401,4 +504,4 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
         )
         if cv is not None:
             figures.append(plot_order_cv(cv, plots / "order_cv.png"))
-    return fit
+    return fit, notes

@@ -26,6 +26,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--set", action="append", default=[], metavar="NAME=VALUE", help="override a parameter"
     )
     p.add_argument("--plot", help="also write a PNG comparing simulation and recording")
+    p.add_argument(
+        "--x0",
+        choices=("auto", "estimate", "steady", "zero"),
+        default="auto",
+        help="initial state of a linear fit (ss, foptd): estimate (least squares on the "
+        "recording's outputs), steady (settled at the first input), zero (at rest at the "
+        "operating point); auto (default): estimate when the recording has the outputs, "
+        "else steady. Other models start in their own initial state",
+    )
     add_data_options(p)
 
 
@@ -65,8 +74,8 @@ def run(args: argparse.Namespace) -> int:
             )
         model = fit.build_model()
         theta = fit.theta(model)
-        if fit.model in ("ss", "foptd") and "operating_point" in fit.settings:
-            linear = fit  # a deviation model: apply its operating point and initial state
+        if fit.model in ("ss", "foptd"):
+            linear = fit  # its operating point and an initial state chosen by --x0
     elif args.model:
         model = get_model(args.model)
         theta = model.theta()
@@ -78,11 +87,23 @@ def run(args: argparse.Namespace) -> int:
     rec.validate_for(model, outputs=False)
     rec.check_values([s.name for s in model.exogenous])
     if linear is not None:
-        from thermogym.identification.linear_fit import simulate_recording
+        from thermogym.identification.linear_fit import predict, simulate_recording
 
         linear.parameters.update(sets)
-        out = simulate_recording(linear, rec)
+        pred = predict(linear, rec, x0=args.x0)
+        out = simulate_recording(linear, rec, x0=pred.x0)
+        start = {
+            "estimate": "estimated from the recording's outputs",
+            "steady": "settled at the first input",
+            "zero": "at rest at the operating point",
+        }[pred.x0]
+        print(f"initial state: {pred.x0} ({start}); operating point of the {pred.operating}")
     else:
+        if args.x0 != "auto":
+            raise ConfigError(
+                f"--x0 {args.x0} applies to linear fits (ss, foptd); model {model.name!r} "
+                "starts in its own initial state"
+            )
         u = rec.exogenous_array(model)
         sim = model.simulate(u, rec.dt, theta, t0=float(rec.time[0]))
         out = Recording.from_simulation(
@@ -105,11 +126,11 @@ def run(args: argparse.Namespace) -> int:
                 overlay={"simulation": {n: out[n] for n in model.output_names}},
             )
     print(f"simulated {model.name} on {rec.n_samples} samples (dt = {rec.dt:g} s) -> {args.out}")
+    from thermogym.identification.metrics import fit_text, nrmse
+
     for name in model.output_names:
         if name in rec and np.isfinite(rec[name]).all():
-            y, yh = rec[name], out[name]
-            fit = 1.0 - np.linalg.norm(y - yh) / max(np.linalg.norm(y - y.mean()), 1e-300)
-            print(f"  {name:<24} NRMSE fit {100 * fit:6.2f} %")
+            print(f"  {name:<24} fit {fit_text(float(nrmse(rec[name], out[name])))}")
     if args.plot:
         print(f"  plot: {args.plot}")
     return 0

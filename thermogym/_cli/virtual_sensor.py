@@ -6,7 +6,7 @@ recording: the identified state-space model of ``--fit`` (``ss``, e.g. from
 outputs read from DATA, the other outputs estimated. Writes a recording with
 the estimates, their standard deviations (``<name>_std``) and the observer
 status; when DATA also holds the hidden signals (a run-in rig with internal
-RTDs) it prints the estimation RMSE, NRMSE fit (paper 001 eq 5) and the NEES
+RTDs) it prints the estimation RMSE, fit (NRMSE fit, paper 001 eq 5, in %) and the NEES
 consistency against them. ``--plot`` draws measured, true and estimated
 temperatures.
 """
@@ -86,6 +86,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "the number of measured channels (never the evaluation data)",
     )
     p.add_argument("--plot", help="also write a PNG of measured, true and estimated signals")
+    p.add_argument(
+        "--x0",
+        choices=("auto", "estimate", "steady", "zero"),
+        default="auto",
+        help="initial state: estimate (least squares on the measured channels), steady (the "
+        "equilibrium at the first readings, --rest applies), zero (at rest at the model's "
+        "operating point); auto (default): steady with --rest or without measured channels, "
+        "else estimate",
+    )
     add_data_options(p)
 
 
@@ -144,7 +153,7 @@ def run(args: argparse.Namespace) -> int:
 def _estimate(args: argparse.Namespace, plan: Any) -> int:
     from thermogym.estimation import consistency
     from thermogym.firmware.export import sensor_from_fit
-    from thermogym.identification.metrics import nrmse, rmse
+    from thermogym.identification.metrics import fit_text, nrmse, rmse
     from thermogym.recording import Recording, write_recording
 
     rest = _pairs(args.rest)
@@ -166,7 +175,11 @@ def _estimate(args: argparse.Namespace, plan: Any) -> int:
         _, alpha = cal_sensor.tuned(u_c, z_c)
         sensor = sensor.with_noise(sensor.noise.scaled(process=alpha))
         print(f"process noise scaled by {alpha:.4g} on {args.tune} (mean NIS = measured channels)")
-    est = sensor.estimate(rec, method=args.method, rest=rest or None)
+    x0 = args.x0
+    if x0 == "auto":  # --rest says the record starts at rest: the steady state then
+        x0 = "estimate" if sensor.measured_names and not rest else "steady"
+    print(f"initial state: {x0}")
+    est = sensor.estimate(rec, method=args.method, rest=rest or None, x0=x0)
     cols = {}
     units = {}
     for j, name in enumerate(est.names):
@@ -209,7 +222,7 @@ def _estimate(args: argparse.Namespace, plan: Any) -> int:
             truth[n] = Y[:, j]
             print(
                 f"  {n:<24} RMSE {float(rmse(Y[:, j], Yh[:, j])):.4f}   "
-                f"NRMSE fit {100 * float(nrmse(Y[:, j], Yh[:, j])):6.2f} %"
+                f"fit {fit_text(float(nrmse(Y[:, j], Yh[:, j])))}"
             )
         ok = np.isfinite(Y).all(axis=1)
         if ok.sum() > 2:

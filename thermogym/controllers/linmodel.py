@@ -13,9 +13,9 @@ input, measured disturbances and the rest (held at their operating point)::
 FOPTD sets (``000_24627a5308ee07db.txt`` eqs 7-12) become one lag state per
 (output, input) pair plus a delay line per input, with the exact zero-order
 hold coefficients of :func:`~thermogym.models.linear.foptd_zoh` (fractional
-delays included). FOPTD FitResults carry their offsets ``y0`` (output at zero
-input), so their operating point is ``u_op = 0``, ``y_op = y0``; state-space
-FitResults give theirs in ``settings["operating_point"]``.
+delays included). The operating point is the model's own
+(``operating_point()``; a FitResult stores it in ``model_config``, FOPTD as
+``u_op`` and the offsets ``y0``, the output at rest at ``u_op``).
 """
 
 from __future__ import annotations
@@ -268,15 +268,24 @@ def linear_plant(
             raise ConfigError("linear_plant: give dt (the sample period) for an FOPTD model")
         A, Bx, C = _foptd_matrices(model, th, step)
         Dx = np.zeros((len(outs_all), len(exo)))
-        y_op = model._offsets(th)[0] if model.offsets else _op(op, "outputs", outs_all)
-        u_all = np.zeros(len(exo)) if model.offsets else _op(op, "inputs", exo)
+        # the model's own operating point (u_op, and y0 the output at rest there); a fit
+        # without offsets keeps its operating point in the settings only
+        u_all, y_op = (v[0] for v in model.operating_point(th))
+        if not model.offsets:
+            y_op, u_all = _op(op, "outputs", outs_all), _op(op, "inputs", exo)
         kind = "foptd"
     elif isinstance(model, StateSpaceModel):
         mats = model.matrices(th)
         A, Bx, C, Dx = mats.A[0], mats.B[0], mats.C[0], mats.D[0]
         model_dt = model.dt
-        y_op = _op(op, "outputs", outs_all)
-        u_all = _op(op, "inputs", exo)
+        if model_dt is None:
+            if dt is None:
+                raise ConfigError(
+                    "linear_plant: the state-space model has no sample period (dt=None); give "
+                    "dt, the period its matrices are discrete at"
+                )
+            model_dt = float(dt)
+        u_all, y_op = (v[0] for v in model.operating_point(th))  # FitResult.build_model sets it
         kind = "ss"
     else:
         raise ConfigError(

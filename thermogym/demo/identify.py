@@ -360,7 +360,8 @@ def stage_identify(ctx: DemoContext, res: StageResult) -> None:
         "fold and a day at another speed, the strut models at 25 and 30 m/min, the AXT211 "
         "model on the step tests it was not trained on and the PWM test. Timings: "
         + "; ".join(timings)
-        + ". The strut models miss the rig's concealed effect: their held-out fit at 25 and "
+        + ". The strut models miss the rig's own physics and its concealed effect: their "
+        "held-out fit at 25 and "
         "30 m/min is the starting point of stage 3."
     )
 

@@ -59,7 +59,7 @@ def rig_figures(ctx: Any, recs: Mapping[str, Sequence[Any]]) -> Figs:
         signals=["feed_rate", "T_drive", "T_nut", "T_bearing", "dL_um"],
         title="Strut feed-rate steps with a concealed effect (paper 000 section 4)",
     )
-    out.append((p, "Strut step tests at 20, 25 and 30 m/min (the rig hides forced convection)"))
+    out.append((p, "Strut step tests at 20, 25 and 30 m/min (the rig is a plant of its own)"))
     day = recs["spindle/run-in"][-1]
     p = plot_recordings(
         [day],

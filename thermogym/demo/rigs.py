@@ -1,9 +1,12 @@
 """Stage 1: the virtual test rigs run the papers' experiments.
 
-The strut rig carries a *concealed* effect: forced convection that grows
-with the feed rate (``input_dependent_heat_transfer``, the nonlinearity paper
-000 section 4.1 names as the reason its FOPTD set fails at other feed rates).
-Nothing downstream is told about it; stage 3 has to find it.
+The strut and spindle rigs are plants of their own, richer than the models
+(:mod:`thermogym.rigs.strut`: the rotating screw's forced convection grows
+with the feed rate, the nonlinearity paper 000 section 4.1 names as the
+reason its linear models fail at other feed rates). The strut rig also
+carries a *concealed* effect (``input_dependent_heat_transfer``: a
+self-ventilated drive motor whose fan cools it harder at higher feed rates).
+Nothing downstream is told about either; stage 3 has to find them.
 """
 
 from __future__ import annotations
@@ -110,9 +113,11 @@ def stage_rigs(ctx: DemoContext, res: StageResult) -> None:
         "* AXT211 (paper 002): power steps on the 19-29 V × 0-50 °C grid, the closed-loop "
         "temperature staircase (stroke gain and backlash) and a PWM test. The step is "
         "overlaid with the package's nominal model.\n"
-        f"* Strut (paper 000): feed-rate steps at 20, 25 and 30 m/min. The rig carries a "
-        f"**concealed effect** (`{CONCEALED}`: convection that grows with the feed rate) that "
-        "no model downstream is told about.\n"
+        f"* Strut (paper 000): feed-rate steps at 20, 25 and 30 m/min on a plant of its own "
+        "(conduction along the screw and the push tube, the rotating screw's convection "
+        "growing with the feed rate, copper losses growing with the winding temperature). The "
+        f"rig also carries a **concealed effect** (`{CONCEALED}`: the drive motor's fan cools "
+        "it harder at higher feed rates) that no model downstream is told about.\n"
         f"* Spindle (paper 001): run-in days at {', '.join(map(str, speeds))} rpm (two folds "
         f"each) and a validation day at {', '.join(map(str, vspeeds))} rpm, raw: up to "
         f"{n_raw} rows a day at 4.17 Hz per module."

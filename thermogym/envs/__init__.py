@@ -1,7 +1,8 @@
 """Gymnasium environments wrapping the identified plant models.
 
-``import thermogym.envs`` registers the environments (versioned IDs; a
-behaviour change means a new version):
+``import thermogym`` (and so ``import thermogym.envs``) registers the
+environments (versioned IDs; a behaviour change means a new version; the
+table is :data:`thermogym.ENVIRONMENTS`):
 
 ==============================  ===========================================================
 ID                              plant
@@ -12,6 +13,8 @@ ID                              plant
 ``thermogym/StrutThermal-v0``   feed rate and thermal-elongation compensation (paper 000)
 ``thermogym/TCLab-v0``          the two-heater Temperature Control Lab, identified from
                                 real recordings
+``thermogym/IdentifiedPlant-v0`` any identified linear model of a user's own plant
+                                (``params=FIT`` of ss, foptd, sopdt, arx, armax, oe, bj)
 ==============================  ===========================================================
 
 Without importing this module first, ``gymnasium.make("thermogym.envs:thermogym/TCLab-v0")``
@@ -39,29 +42,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from gymnasium.envs.registration import register, registry
+from thermogym import ENVIRONMENTS, register_environments
 
 __all__ = ["ENV_IDS", "DomainRandomization", "ParameterRefresh"]
 
-_M = "thermogym.envs"
-#: Registered environment IDs -> (module, single class, vector class).
-_ENVS: dict[str, tuple[str, str, str]] = {
-    "thermogym/AXT211Valve-v0": ("axt211_valve", "AXT211ValveEnv", "AXT211ValveVectorEnv"),
-    "thermogym/AXT211Room-v0": ("axt211_room", "AXT211RoomEnv", "AXT211RoomVectorEnv"),
-    "thermogym/SpindleThermal-v0": ("spindle", "SpindleThermalEnv", "SpindleThermalVectorEnv"),
-    "thermogym/StrutThermal-v0": ("strut", "StrutThermalEnv", "StrutThermalVectorEnv"),
-    "thermogym/TCLab-v0": ("tclab", "TCLabEnv", "TCLabVectorEnv"),
-}
-#: The registered IDs.
-ENV_IDS: tuple[str, ...] = tuple(_ENVS)
+ENV_IDS: tuple[str, ...] = tuple(ENVIRONMENTS)
 
-for _id, (_mod, _single, _vector) in _ENVS.items():
-    if _id not in registry:
-        register(
-            id=_id,
-            entry_point=f"{_M}.{_mod}:{_single}",
-            vector_entry_point=f"{_M}.{_mod}:{_vector}",
-        )
+register_environments()  # already done by ``import thermogym``; kept for explicitness
 
 
 def __getattr__(name: str) -> Any:

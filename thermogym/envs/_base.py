@@ -47,8 +47,9 @@ from gymnasium.vector.utils import batch_space
 from numpy.typing import NDArray
 
 from thermogym._checks import in_range
-from thermogym.envs._plant import ParamsLike, Plant, load_params, make_sampler
+from thermogym.envs._plant import ParamsLike, Plant, is_overrides, load_params, make_sampler
 from thermogym.errors import ConfigError, ShapeError, SimulationError
+from thermogym.fitresult import FitResult
 
 __all__ = [
     "NOISE_BLOCK",
@@ -366,7 +367,16 @@ class Engine:
         Returns a record of the change: old and new FitResult fingerprints and
         the parameters whose values changed.
         """
-        new = load_params(fit, [self.model.name], self.name)
+        if is_overrides(fit):  # {"C_P": 20}: these values on top of the running parameters
+            theta = self.model.theta(self.base_theta, **dict(fit))  # type: ignore[arg-type]
+            new = FitResult.from_model(
+                self.model,
+                theta[0],
+                method=f"{self.plant.fit.method or 'nominal'} with overrides",
+                notes=f"parameters set by the caller: {sorted(fit)}",  # type: ignore[arg-type]
+            )
+        else:
+            new = load_params(fit, [self.model.name], self.name)
         if new is None:
             raise ConfigError(f"{self.name}: no parameters given (None) to apply")
         if new.model_config != self.plant.fit.model_config:

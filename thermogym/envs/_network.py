@@ -12,12 +12,20 @@ exponential) or from the state-space matrices raised to the control period.
 The step kernels do this update in compiled code; the matrices are computed
 once per parameter set.
 
-A network with nonlinear effects (``plant="rig"`` with
+A network with nonlinear effects (a FitResult of a model with
 ``input_nonlinearity``, ``input_dependent_heat_transfer``,
 ``nonlinear_heat_transfer``, ``time_varying_parameter``) is advanced instead
 by the network's own compiled fixed-step RK4 kernel
 (:func:`thermogym.models.thermal_network._rk4_kernel`) before the step kernel
 measures and rewards.
+
+With ``plant="rig"`` (:func:`network_plant`) the engine steps the rig's true
+plant (:class:`thermogym.rigs.base.TruePlant`: the strut's or the spindle's,
+written apart from the models, one specimen) for all active plants at once,
+and its state holds the rig's noise-free outputs, which the step kernel
+measures with the rig's sensors (white noise, quantisation, the sensor
+offsets and drifts of its effects). The nominal model only lends its signal
+names; it does not run.
 """
 
 from __future__ import annotations
@@ -30,13 +38,46 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.envs._base import C_K, Engine
-from thermogym.envs._plant import Plant
+from thermogym.envs._plant import ParamsLike, Plant, resolve_plant
 from thermogym.errors import ConfigError
 from thermogym.models import thermal_network as _tn
 from thermogym.models.linear import StateSpaceModel
 from thermogym.models.thermal_network import ThermalNetworkModel
 
-__all__ = ["LTIEngine", "lti_update"]
+__all__ = ["LTIEngine", "lti_update", "network_plant"]
+
+
+def network_plant(
+    env: str,
+    *,
+    params: ParamsLike,
+    plant: str,
+    models: Sequence[str],
+    default: Any,
+    rig: str,
+    rig_effects: Sequence[Any],
+    stepwise_effects: Sequence[str],
+    specimen_seed: int | None = None,
+) -> Plant:
+    """The plant of a machine-tool environment (:func:`~thermogym.envs._plant.resolve_plant`).
+
+    With ``plant="rig"`` the returned :class:`Plant` carries the rig, its true
+    plant and its specimen: the rig's own strut or spindle, or one drawn from
+    its spread with ``specimen_seed``; its ``model`` is the nominal model
+    (names only).
+    """
+    specimen = None
+    if plant == "rig" and specimen_seed is not None:
+        if isinstance(specimen_seed, bool) or not isinstance(specimen_seed, int | np.integer):
+            raise ConfigError(f"{env}: specimen_seed is {specimen_seed!r}; expected an integer")
+        from thermogym.rigs import get_rig
+
+        r = get_rig(rig)
+        specimen = r.plant().draw_specimens(np.random.default_rng(int(specimen_seed)), 1)
+    return resolve_plant(
+        env, params=params, plant=plant, models=models, default=default, rig=rig,
+        rig_effects=rig_effects, stepwise_effects=stepwise_effects, specimen=specimen,
+    )  # fmt: skip
 
 
 @nb.njit(cache=True, inline="always")
@@ -94,6 +135,8 @@ class LTIEngine(Engine):
         super().__init__(B, plant, n_acc)
         m = plant.model
         self._dt_ctrl = float(dt)
+        #: The rig's true plant (``plant="rig"``) or None; its state is :attr:`xr`.
+        self.rig_plant: Any = getattr(plant, "true_plant", None) if plant.kind == "rig" else None
         missing = [o for o in outputs if o not in m.output_names]
         if missing:
             raise ConfigError(
@@ -120,6 +163,17 @@ class LTIEngine(Engine):
             )
         nx = len(m.state_names)
         ny = len(outputs)
+        if self.rig_plant is not None:
+            rp = self.rig_plant
+            missing = [o for o in outputs if o not in rp.output_names]
+            if missing:
+                raise ConfigError(f"{self.name}: the rig's plant lacks output(s) {missing}")
+            # the engine's state holds the rig's outputs (identity output map)
+            self.rig_oidx = np.array([rp.output_names.index(o) for o in outputs], dtype=np.int64)
+            self.xr = np.zeros((B, len(rp.state_names)))
+            self._rig_spec = plant.specimens  # type: ignore[attr-defined]
+            self._rig_specs: dict[int, Any] = {}
+            nx = ny
         self.x = np.zeros((B, nx))
         self.Ad = np.zeros((B, nx, nx))
         self.Bd = np.zeros((B, nx, 2))
@@ -142,6 +196,17 @@ class LTIEngine(Engine):
 
     def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
         m = self.model
+        if self.rig_plant is not None:
+            # the rig's outputs are the state: y = x, advanced by the rig, not by (A_d, B_d)
+            n = self.x.shape[1]
+            self.linear[b] = False
+            self.Ad[b] = np.eye(n)
+            self.Bd[b] = 0.0
+            self.Hm[b] = np.eye(n)
+            self.Dm[b] = 0.0
+            self.h0[b] = 0.0
+            self.all_linear = False
+            return
         if isinstance(m, StateSpaceModel):
             mats = m.matrices(theta)
             A, Bm, C, D = mats.A[0], mats.B[0], mats.C[0], mats.D[0]
@@ -180,8 +245,21 @@ class LTIEngine(Engine):
     #: Largest manipulated input (bounds the RK4 step of a nonlinear network).
     u_max: float = 1.0
 
+    def _rig_specimens(self, n: int) -> Any:
+        sp = self._rig_specs.get(n)
+        if sp is None:
+            sp = self._rig_specs[n] = self._rig_spec.take(np.zeros(n, dtype=np.int64))
+        return sp
+
     def rest_state(self, b: int, u0: NDArray[np.float64]) -> NDArray[np.float64]:
         """Steady state for constant exogenous ``u0 = [input, ambient]``."""
+        if self.rig_plant is not None:
+            rp, sp = self.rig_plant, self._rig_specimens(1)
+            x = rp.initial_state(sp, np.asarray(u0, dtype=float))
+            if u0[0] > 0.0:  # warm: two days at the input from rest (steady within them)
+                x = rp.simulate(np.tile(u0, (49, 1)), 3600.0, sp, x0=x).states[:, -1]
+            self.xr[b] = x[0]
+            return rp.outputs(x, u0, sp)[0, self.rig_oidx]
         if not self.linear[b]:
             # a network at rest: every node at the air temperature
             return np.full(self.x.shape[1], float(u0[1]))
@@ -190,6 +268,15 @@ class LTIEngine(Engine):
 
     def advance_nonlinear(self, u: NDArray[np.float64]) -> None:
         """RK4 step of the active plants whose network is nonlinear (``u``: (B, 2))."""
+        if self.rig_plant is not None:
+            rows = np.flatnonzero(self.active)
+            if rows.size == 0:
+                return
+            rp, sp = self.rig_plant, self._rig_specimens(rows.size)
+            xr = rp.step(self.xr[rows], u[rows], self._dt_ctrl, sp)
+            self.xr[rows] = xr
+            self.x[rows] = rp.outputs(xr, u[rows], sp)[:, self.rig_oidx]
+            return
         for b in np.flatnonzero(self.active & ~self.linear):
             net, eff, nsub = self._nets[int(b)]
             m = self.model

@@ -9,14 +9,13 @@
   environment can run (its name is checked, and its version by
   :meth:`FitResult.build_model`).
 * ``plant="rig"``: the virtual test rig's true plant. For a rig with a true
-  plant of its own (:class:`thermogym.rigs.base.TruePlant`: the AXT211 and
-  room rigs) the environment steps that plant, one specimen drawn from its
+  plant of its own (:class:`thermogym.rigs.base.TruePlant`: the AXT211, room,
+  strut and spindle rigs) the environment steps that plant, one specimen drawn from its
   manufacturing spread, and measures through the rig's sensors
   (:mod:`thermogym.envs._rig`); :attr:`Plant.model` is then only the nominal
-  model (shapes and names), not what runs. For a rig still built on a model
-  (:class:`thermogym.rigs._legacy.ModelRig`) the model runs with the rig's
-  effects and parameter overrides. Nothing of the rig's effects is visible to
-  the controller except through the measurements.
+  model (shapes and names), not what runs (the strut and spindle envs step
+  their rigs' plants in :mod:`thermogym.envs._network`). Nothing of the rig's
+  effects is visible to the controller except through the measurements.
 
 Environments read FitResults through :mod:`thermogym.fitresult` only; they
 never import :mod:`thermogym.identification` (DESIGN.md dependency rule).
@@ -37,7 +36,7 @@ from thermogym.errors import ConfigError, ParameterError
 from thermogym.fitresult import FitResult, load_fit
 from thermogym.models.base import Model
 
-__all__ = ["ParamsLike", "Plant", "make_sampler", "resolve_plant", "rig_only"]
+__all__ = ["ParamsLike", "Plant", "is_overrides", "make_sampler", "resolve_plant", "rig_only"]
 
 ParamsLike = FitResult | str | os.PathLike[str] | Mapping[str, Any] | None
 PLANTS = ("model", "rig")
@@ -107,6 +106,25 @@ class Plant:
                 ) from None
             (offset if key == "offset" else drift)[j] = v
         return offset, drift
+
+
+def is_overrides(params: ParamsLike) -> bool:
+    """Whether ``params`` is a plain ``{parameter: value}`` mapping, not a FitResult dict.
+
+    A FitResult dict has its required keys ``model`` and ``parameters``; a
+    mapping of names to numbers (``{"C_P": 20}``) sets those parameters of the
+    environment's default model.
+
+    Examples
+    --------
+    >>> is_overrides({"C_P": 20.0}), is_overrides({"model": "tclab", "parameters": {}})
+    (True, False)
+    """
+    if not isinstance(params, Mapping) or not params:
+        return False
+    if "parameters" in params or "model" in params or "format" in params:
+        return False
+    return all(isinstance(k, str) for k in params)
 
 
 def load_params(params: ParamsLike, models: Sequence[str], env: str) -> FitResult | None:
@@ -186,6 +204,11 @@ def resolve_plant(
                 f"{env}: rig_effects {list(rig_effects)} apply to plant='rig' only; the "
                 "identified model has no concealed physics"
             )
+        overrides: dict[str, Any] = {}
+        if is_overrides(params):
+            # params={"C_P": 20}: plain values on top of the environment's default model
+            overrides = dict(params)  # type: ignore[arg-type]
+            params = None
         fit = load_params(params, models, env)
         if fit is None and not callable(default):
             fit = load_params(default, models, env)
@@ -194,7 +217,16 @@ def resolve_plant(
             fit = FitResult.from_model(model, method="nominal", notes="package nominal values")
         else:
             model = fit.build_model()
-        return Plant(model, fit.theta(model), "model", fit)
+        theta = fit.theta(model)
+        if overrides:
+            theta = model.theta(theta, **overrides)  # unknown names: ParameterError, listed
+            fit = FitResult.from_model(
+                model,
+                theta[0],
+                method=f"{fit.method or 'nominal'} with overrides",
+                notes=f"parameters set by the caller: {sorted(overrides)}",
+            )
+        return Plant(model, theta, "model", fit)
     if params is not None:
         raise ConfigError(
             f"{env}: params is given with plant='rig'; the rig is the true plant and has its "

@@ -96,8 +96,8 @@ from thermogym.envs._base import (
     steps_of,
 )
 from thermogym.envs._kernels import cache_depends_on, meas_array, measure, plant_loops
-from thermogym.envs._network import LTIEngine, lti_output, lti_update
-from thermogym.envs._plant import ParamsLike, resolve_plant
+from thermogym.envs._network import LTIEngine, lti_output, lti_update, network_plant
+from thermogym.envs._plant import ParamsLike
 from thermogym.envs.profiles import ambient_day
 from thermogym.errors import ConfigError
 from thermogym.models.spindle import SpindleModel
@@ -130,6 +130,7 @@ _STEPWISE_RIG_EFFECTS = (
     "input_dependent_heat_transfer",
     "nonlinear_heat_transfer",
     "time_varying_parameter",
+    "missing_dynamics",
     "sensor_offset",
     "sensor_drift",
 )
@@ -147,6 +148,8 @@ class SpindleConfig:
     """``"model"`` or ``"rig"`` (the spindle rig's true plant)."""
     rig_effects: Sequence[str] = ()
     """Effects of the spindle rig (``plant="rig"``)."""
+    specimen_seed: int | None = None
+    """``plant="rig"``: seed of the rig's specimen drawn from its spread (None: the rig's own)."""
     control_period: float = 60.0
     """Control period [s]."""
     episode_s: float = 8 * 3600.0
@@ -294,7 +297,12 @@ class _SpindleEngine(LTIEngine):
         self.clock = check_number(env, "start_clock_h", cfg.start_clock_h, lo=0.0, hi=24.0)
         self.n0 = check_number(env, "initial_speed_rpm", cfg.initial_speed_rpm, lo=0.0, hi=1e5)
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
-        plant = resolve_plant(
+        if cfg.plant == "rig" and cfg.randomize is not None:
+            raise ConfigError(
+                f"{env}: randomize is not available with plant='rig': the rig's true plant is "
+                "not a model with parameters (its specimen is set by specimen_seed)"
+            )
+        plant = network_plant(
             env,
             params=cfg.params,
             plant=cfg.plant,
@@ -303,6 +311,7 @@ class _SpindleEngine(LTIEngine):
             rig="spindle",
             rig_effects=cfg.rig_effects,
             stepwise_effects=_STEPWISE_RIG_EFFECTS,
+            specimen_seed=cfg.specimen_seed,
         )
         super().__init__(B, plant, OUTPUTS, ("speed", "T_amb"), T, _NACC)
         sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)

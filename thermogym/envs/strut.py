@@ -86,8 +86,9 @@ from thermogym.envs._base import (
     steps_of,
 )
 from thermogym.envs._kernels import cache_depends_on, meas_array, measure, plant_loops
-from thermogym.envs._network import LTIEngine, lti_output, lti_update
-from thermogym.envs._plant import ParamsLike, resolve_plant
+from thermogym.envs._network import LTIEngine, lti_output, lti_update, network_plant
+from thermogym.envs._plant import ParamsLike
+from thermogym.errors import ConfigError
 from thermogym.models.strut import STRUT_OUTPUTS, StrutModel
 
 __all__ = ["DEFAULT_WEIGHTS", "StrutConfig", "StrutThermalEnv", "StrutThermalVectorEnv"]
@@ -107,6 +108,7 @@ _STEPWISE_RIG_EFFECTS = (
     "input_nonlinearity",
     "nonlinear_heat_transfer",
     "time_varying_parameter",
+    "missing_dynamics",
     "sensor_offset",
     "sensor_drift",
 )
@@ -122,6 +124,8 @@ class StrutConfig:
     """``"model"`` or ``"rig"`` (the strut rig's true plant)."""
     rig_effects: Sequence[str] = ()
     """Effects of the strut rig (``plant="rig"``)."""
+    specimen_seed: int | None = None
+    """``plant="rig"``: seed of the rig's specimen drawn from its spread (None: the rig's own)."""
     control_period: float = 60.0
     """Control period [s]."""
     episode_s: float = 8 * 3600.0
@@ -270,7 +274,12 @@ class _StrutEngine(LTIEngine):
         self.air = check_range(env, "air_C", cfg.air_C, lo=-20.0, hi=60.0)
         self.swing = check_number(env, "air_swing_K", cfg.air_swing_K, lo=0.0, hi=20.0)
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
-        plant = resolve_plant(
+        if cfg.plant == "rig" and cfg.randomize is not None:
+            raise ConfigError(
+                f"{env}: randomize is not available with plant='rig': the rig's true plant is "
+                "not a model with parameters (its specimen is set by specimen_seed)"
+            )
+        plant = network_plant(
             env,
             params=cfg.params,
             plant=cfg.plant,
@@ -279,6 +288,7 @@ class _StrutEngine(LTIEngine):
             rig="strut",
             rig_effects=cfg.rig_effects,
             stepwise_effects=_STEPWISE_RIG_EFFECTS,
+            specimen_seed=cfg.specimen_seed,
         )
         super().__init__(B, plant, OUTPUTS, ("feed_rate", "T_air"), T, _NACC)
         sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)
@@ -320,12 +330,15 @@ class _StrutEngine(LTIEngine):
         phase = float(rng.uniform(0.0, 2 * np.pi))
         t = self._dt * np.arange(self._horizon + 1)
         self.air_tab[b] = mean + self.swing * np.sin(2 * np.pi * t / (6 * 3600.0) + phase)
-        if self.cfg.zero_at_start:
+        if self.cfg.zero_at_start and self.rig_plant is None:
             # the axis is referenced now: T_ref = starting air temperature, so ΔL(0) = 0.
             # T_ref enters only the offset of ΔL (h_0 = −Σ α L · T_ref, eq 5)
             T_ref = self.theta[b, self._iref]
             self.h0[b, 7] = self._h0_dL[b] + self._L_total_um * (T_ref - self.air_tab[b, 0])
         self.x[b] = self.rest_state(b, np.array([0.0, self.air_tab[b, 0]]))
+        if self.cfg.zero_at_start and self.rig_plant is not None:
+            # the rig's ΔL is against the ISO 20 °C length: reference the axis now
+            self.h0[b, 7] = -self.x[b, 7]
         self.acc[b, _A_V] = 0.0
         self.acc[b, _A_C] = 0.0
 

@@ -2,9 +2,12 @@
 
 One observer step (``ν`` the innovation)::
 
-    ν[k]       = z[k] − C_z x̂[k] − D_z u[k]
-    ŷ_h[k|k]   = C_h x̂[k] + D_h u[k] + F ν[k],   F = C_h L
+    ν[k]       = z[k] − z_0 − C_z x̂[k] − D_z u[k]
+    ŷ_h[k|k]   = y_0 + C_h x̂[k] + D_h u[k] + F ν[k],   F = C_h L
     x̂[k+1]     = A x̂[k] + B u[k] + K ν[k]
+
+``z_0``, ``y_0`` are the constant output terms of a model identified about an
+operating point (zero for a model without one).
 """
 
 from __future__ import annotations
@@ -56,7 +59,7 @@ class ObserverMatrices:
 
     Per sample (physical units, see the module docstring)::
 
-        ν = z − Cz x − Dz u,   ŷ = Ch x + Dh u + F ν,   x⁺ = A x + B u + G ν
+        ν = z − z0 − Cz x − Dz u,   ŷ = y0 + Ch x + Dh u + F ν,   x⁺ = A x + B u + G ν
 
     Attributes
     ----------
@@ -75,6 +78,9 @@ class ObserverMatrices:
         Sample period [s].
     units : dict
         Unit of every channel.
+    z0, y0 : ndarray, shape (q,) and (p,), optional
+        Constant output terms of the measured and hidden channels (a model
+        identified about an operating point); zero when None.
     """
 
     A: NDArray[np.float64]
@@ -93,6 +99,20 @@ class ObserverMatrices:
     upper: NDArray[np.float64]
     dt: float
     units: dict[str, str]
+    z0: NDArray[np.float64] | None = None
+    y0: NDArray[np.float64] | None = None
+
+    @property
+    def z_const(self) -> NDArray[np.float64]:
+        """``z0`` (zeros when None), shape (q,)."""
+        q = self.Cz.shape[0]
+        return np.zeros(q) if self.z0 is None else np.asarray(self.z0, dtype=float)
+
+    @property
+    def y_const(self) -> NDArray[np.float64]:
+        """``y0`` (zeros when None), shape (p,)."""
+        p = self.Ch.shape[0]
+        return np.zeros(p) if self.y0 is None else np.asarray(self.y0, dtype=float)
 
     @property
     def dims(self) -> tuple[int, int, int, int]:
@@ -100,7 +120,7 @@ class ObserverMatrices:
         return (self.A.shape[0], self.B.shape[1], self.Cz.shape[0], self.Ch.shape[0])
 
     def rest_state(self, u: ArrayLike, z: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Observer equilibrium ``x = N [u; z]`` for constant readings, shape (n,)."""
+        """Observer equilibrium ``x = N [u; z − z0]`` for constant readings, shape (n,)."""
         _, m, q, _ = self.dims
         if self.N is None:
             raise ParameterError(
@@ -111,7 +131,7 @@ class ObserverMatrices:
         za = np.zeros(0) if z is None else np.asarray(z, dtype=float).reshape(-1)
         if ua.shape != (m,) or za.shape != (q,):
             raise ShapeError(f"u has shape {ua.shape} and z {za.shape}; expected ({m},), ({q},)")
-        return self.N @ np.concatenate([ua, za])
+        return self.N @ np.concatenate([ua, za - self.z_const])
 
 
 @nb.njit(cache=True)
@@ -265,8 +285,8 @@ class SteadyStateObserver:
 
     def _correct(self, ua: NDArray[np.float64], za: NDArray[np.float64]) -> None:
         M = self.matrices
-        self._nu = za - M.Cz @ self._x - M.Dz @ ua  # ν = z − Cz x − Dz u
-        self._y = M.Ch @ self._x + M.Dh @ ua + M.F @ self._nu  # ŷ = Ch x + Dh u + F ν
+        self._nu = za - M.z_const - M.Cz @ self._x - M.Dz @ ua  # ν = z − z0 − Cz x − Dz u
+        self._y = M.y_const + M.Ch @ self._x + M.Dh @ ua + M.F @ self._nu  # ŷ = y0 + Ch x + …
 
     def reset(self, u: ArrayLike, z: ArrayLike | None = None) -> NDArray[np.float64]:
         """Start at the equilibrium for readings ``(u, z)``; return the estimate there.

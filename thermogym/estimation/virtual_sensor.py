@@ -248,9 +248,35 @@ class VirtualSensor:
         outs = list(model.output_names)
         exo = list(model.exogenous_names)
         units = {s.name: s.unit for s in model.signals}
+        if model.dt is None:
+            raise ConfigError(
+                "the state-space model has no sample period (dt=None); a virtual sensor runs at "
+                "a fixed period: build the model with dt"
+            )
         self.model = model
         self.theta = th
         self.dt = float(model.dt)
+        # operating point: y = y_op + C x + D (u − u_op). In the state x' = x + s with
+        # s = (I − A)⁻¹ B u_op the model is x'⁺ = A x' + B u, y = c0 + C x' + D u with the
+        # constant c0 = y_op − C s − D u_op, which the observer carries as z0 / y0.
+        u_op, y_op = (a[0] for a in model.operating_point(th))
+        c0 = np.zeros(len(outs))
+        if np.any(u_op != 0) or np.any(y_op != 0):
+            try:
+                shift = np.linalg.solve(np.eye(A.shape[0]) - A, B @ u_op)
+                if not np.isfinite(shift).all():
+                    raise np.linalg.LinAlgError
+            except np.linalg.LinAlgError:
+                raise ConfigError(
+                    "the fit's operating point cannot be honoured: the model has an "
+                    "integrating mode (I − A singular), so its offsets do not map onto a "
+                    "steady state; identify it about a zero operating point"
+                ) from None
+            c0 = y_op - C @ shift - D @ u_op
+        else:
+            shift = np.zeros(A.shape[0])
+        self._shift = shift
+        self.output_constant = dict(zip(outs, c0.tolist(), strict=True))
 
         meas = _names(measured, "measured")
         for nme in meas:
@@ -363,6 +389,7 @@ class VirtualSensor:
         self._A, self._B = A, B
         self._Cz, self._Dz = C[iz], D[iz]
         self._Ch, self._Dh = C[ih], D[ih]
+        self._z0, self._y0 = c0[iz], c0[ih]
         self.noise = noise
         self.gains = steady_state_gains(A, self._Cz, noise)
         self.exogenous_names = tuple(exo)
@@ -440,6 +467,8 @@ class VirtualSensor:
             self._upper.copy(),
             self.dt,
             dict(self.units),
+            self._z0.copy(),
+            self._y0.copy(),
         )
 
     def step_observer(self) -> SteadyStateObserver:
@@ -543,7 +572,14 @@ class VirtualSensor:
         rest: Mapping[str, float | str] | None = None,
     ) -> NDArray[np.float64]:
         n = self.n_states
-        if x0 is None or (isinstance(x0, str) and x0 == "rest"):
+        if isinstance(x0, str) and x0 == "zero":
+            # at rest at the model's operating point: x = 0, i.e. x' = s (disturbances 0)
+            x = np.zeros(n)
+            x[: self._shift.size] = self._shift
+            return x
+        if isinstance(x0, str) and x0 == "estimate":
+            return self.estimate_x0(u, z)
+        if x0 is None or (isinstance(x0, str) and x0 in ("rest", "steady")):
             u0 = self.rest_inputs(u[0], rest)
             v = np.concatenate([u0, z[0]])
             if not np.isfinite(v).all():
@@ -553,11 +589,45 @@ class VirtualSensor:
                 )
             return self.rest_state(u0, z[0])
         if isinstance(x0, str):
-            raise ConfigError(f"x0 is {x0!r}; expected 'rest' or an array of {n} states")
+            raise ConfigError(
+                f"x0 is {x0!r}; expected 'steady' (or 'rest'), 'zero', 'estimate' or an array "
+                f"of {n} states"
+            )
         xa = np.asarray(x0, dtype=float).reshape(-1)
         if xa.shape != (n,):
             raise ShapeError(f"x0 has shape {xa.shape}, expected ({n},)")
         return xa
+
+    def estimate_x0(self, u: ArrayLike, z: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Initial state by least squares on the measured channels given the inputs.
+
+        The free response ``z − z0 − z_forced = C_z A^k x0`` over the series
+        (NaN samples skipped; :meth:`StateSpaceModel.estimate_x0`);
+        unobservable directions get zero. Without measured channels this is
+        the rest state.
+
+        Parameters
+        ----------
+        u : array_like, shape (T, m)
+        z : array_like, shape (T, q)
+
+        Returns
+        -------
+        ndarray, shape (n,)
+        """
+        ua, za = self._uz(u, z)
+        if za.shape[1] == 0:
+            return self.rest_state(ua[0], za[0])
+        sub = StateSpaceModel.from_matrices(
+            self._A,
+            self._B,
+            self._Cz,
+            self._Dz,
+            y_op=self._z0,
+            inputs=[f"u{j}" for j in range(ua.shape[1])],
+            outputs=[f"z{j}" for j in range(za.shape[1])],
+        )
+        return sub.estimate_x0(ua, za)[0]
 
     # ---------------------------------------------------------------- running
     def observe(
@@ -576,8 +646,11 @@ class VirtualSensor:
             Exogenous channels in :attr:`exogenous_names` order.
         z : array_like, shape (T, q)
             Measured channels in :attr:`measured_names` order.
-        x0 : "rest" or array_like, shape (n,)
-            Initial state; ``"rest"``: the equilibrium at the first sample.
+        x0 : {"steady", "zero", "estimate"} or array_like, shape (n,)
+            Initial state: ``"steady"`` (also ``"rest"``, the default) the
+            equilibrium at the first sample; ``"zero"`` at rest at the
+            model's operating point; ``"estimate"`` least squares on the
+            measured channels (:meth:`estimate_x0`).
         rest : mapping, optional
             Exogenous values to take for the rest state instead of the first
             sample's (:meth:`rest_inputs`), e.g. ``{"speed": 0.0}``; a value
@@ -599,10 +672,17 @@ class VirtualSensor:
         nus = np.empty((T, q))
         status = np.empty(T, dtype=np.int8)
         y0 = M.Ch @ x + M.Dh @ np.nan_to_num(ua[0])
+        # the kernel runs without the constant output terms: z − z0 in, + y0 out (the
+        # channel ranges apply to the readings themselves)
+        lo, hi = M.lower.copy(), M.upper.copy()
+        m = ua.shape[1]
+        lo[m:] -= self._z0
+        hi[m:] -= self._z0
         _observer_kernel(
             M.A, M.B, M.G, M.Cz, M.Dz, M.Ch, M.Dh, M.F,
-            M.lower, M.upper, ua, za, x, y0, y, xs, nus, status,
+            lo, hi, ua, np.ascontiguousarray(za - self._z0), x, y0, y, xs, nus, status,
         )  # fmt: skip
+        y += self._y0
         covh = self._Ch @ self.gains.P_post @ self._Ch.T
         return Estimate(
             self.hidden_names,
@@ -665,7 +745,8 @@ class VirtualSensor:
         ----------
         u : array_like, shape (T, m)
         z : array_like, shape (T, q)
-        x0 : "rest" or array_like, shape (n,)
+        x0 : {"steady", "zero", "estimate"} or array_like, shape (n,)
+            As :meth:`observe`.
         P0 : array_like, shape (n, n), optional
             Initial prior covariance; the steady-state one by default (the
             filter then equals :meth:`observe` when no sample is missing).
@@ -683,7 +764,8 @@ class VirtualSensor:
                 f"exogenous channel is not finite at sample {k}; the Kalman filter needs every "
                 "exogenous sample (prepare the data), missing measurements are fine"
             )
-        x = self._x0(x0, ua, np.nan_to_num(za), rest)
+        keep_nan = isinstance(x0, str) and x0 == "estimate"
+        x = self._x0(x0, ua, za if keep_nan else np.nan_to_num(za), rest)
         kf = self.kalman_filter(x, P0)
         T = ua.shape[0]
         n, m, q, p = self.n_states, ua.shape[1], za.shape[1], len(self.hidden_names)
@@ -717,7 +799,7 @@ class VirtualSensor:
             ok = np.isfinite(za[k])
             idx, Ra, Ha, F, Bf, Qt = pattern(ok)
             if idx.size:
-                zk = (za[k, idx] - self._Dz[idx] @ ua[k]).reshape(-1, 1)
+                zk = (za[k, idx] - self._z0[idx] - self._Dz[idx] @ ua[k]).reshape(-1, 1)
                 kf.update(zk, R=Ra, H=Ha)
                 nus[k, idx] = kf.y.reshape(-1)
                 sig[k][np.ix_(idx, idx)] = kf.S
@@ -727,9 +809,9 @@ class VirtualSensor:
                 kf.update(None)
             xk = kf.x.reshape(-1)
             xs[k] = xk
-            y[k] = self._Ch @ xk + self._Dh @ ua[k]  # ŷ[k|k] = C_h x̂[k|k] + D_h u
+            y[k] = self._y0 + self._Ch @ xk + self._Dh @ ua[k]  # ŷ[k|k] = y0 + C_h x̂ + D_h u
             cov[k] = self._Ch @ kf.P @ self._Ch.T
-            uz = np.concatenate([ua[k], np.where(ok, za[k], 0.0)]).reshape(-1, 1)
+            uz = np.concatenate([ua[k], np.where(ok, za[k] - self._z0, 0.0)]).reshape(-1, 1)
             # x⁺ = F̃ x + B̃ [u; z],  P⁺ = F̃ P F̃ᵀ + Q̃
             kf.predict(u=uz, B=Bf, F=F, Q=Qt)
         return Estimate(self.hidden_names, y, cov, xs, nus, sig, status, self.measured_names)

@@ -322,8 +322,9 @@ def firmware_model(
                 "the offsets; pass offsets of 0 for every exogenous channel"
             ) from None
         x_off = np.zeros(n)
-    z_off = obs.Cz @ x_off + obs.Dz @ u_off
-    y_off = obs.Ch @ x_off + obs.Dh @ u_off
+    # the model's constant output terms (its operating point) belong to the offsets
+    z_off = obs.z_const + obs.Cz @ x_off + obs.Dz @ u_off
+    y_off = obs.y_const + obs.Ch @ x_off + obs.Dh @ u_off
 
     def sc(s: str) -> float:
         return float(scl.get(s, _default_scale(unit.get(s, "1"))))

@@ -36,11 +36,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError, IdentificationError
+from thermogym.identification.advice import FitWarning, check_order, parsimonious_index
 from thermogym.identification.metrics import nrmse, train_validation_accuracy
 from thermogym.identification.n4sid import N4SIDProblem, n4sid_decompose, prepare_problem
 from thermogym.recording import Recording
 
-__all__ = ["SCHEMES", "OrderCV", "cross_validate_order", "split_recording"]
+__all__ = [
+    "SCHEMES",
+    "OrderCV",
+    "cross_validate_order",
+    "make_folds",
+    "split_excited",
+    "split_recording",
+]
 
 #: Cross-validation schemes.
 SCHEMES: tuple[str, ...] = ("paper", "kfold")
@@ -62,11 +70,13 @@ class OrderCV:
     ta, va : ndarray, shape (n_orders,)
         Training and validation accuracy, eqs (8)-(9).
     best_order : int
-        ``argmax VA``, eq (10).
+        ``argmax VA``, eq (10) (reported beside, not used).
     parsimonious_order : int
-        The lowest order whose VA is within ``tolerance`` of the best: orders
-        above the true one fit the noise and differ from it only in the last
-        digits, so eq (10) picks among them by chance.
+        The lowest order whose VA is within ``tolerance`` of the best
+        (:func:`~thermogym.identification.advice.parsimonious_index`, the rule
+        used everywhere, also :attr:`chosen_order`): orders above the true one
+        fit the noise and differ from it only in the last digits, so eq (10)
+        picks among them by chance.
     tolerance : float
         VA tolerance of ``parsimonious_order`` (fraction, default 0.001 = 0.1 %).
     singular_values : list of ndarray
@@ -95,6 +105,17 @@ class OrderCV:
     parsimonious_order: int = 0
     tolerance: float = 1e-3
     settings: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def chosen_order(self) -> int:
+        """The order the package uses: :attr:`parsimonious_order` (one rule everywhere)."""
+        return self.parsimonious_order
+
+    def warnings(self) -> list[FitWarning]:
+        """``order_at_edge`` and ``flat_cv`` warnings of this curve (see :mod:`.advice`)."""
+        return check_order(
+            self.orders.tolist(), self.va, self.chosen_order, tolerance=self.tolerance
+        )
 
     def table(self) -> list[dict[str, float]]:
         """One row per order: order, TA, VA (fractions)."""
@@ -141,20 +162,200 @@ def split_recording(rec: Recording, k: int) -> list[Recording]:
     if rec.n_samples < 2 * k:
         raise IdentificationError(f"{rec.n_samples} samples cannot be cut into {k} parts")
     edges = np.linspace(0, rec.n_samples, int(k) + 1).round().astype(int)
-    parts = []
-    for j in range(int(k)):
-        sel = slice(int(edges[j]), int(edges[j + 1]))
-        part = Recording(
-            rec.time[sel],
-            {c: rec[c][sel] for c in rec.columns},
-            units=dict(rec.units),
-            roles=dict(rec.roles),
-            experiment_id=f"{rec.experiment_id or 'recording'}-part{j + 1}",
-            source=rec.source,
-            meta={**rec.meta, "part": j + 1, "of": int(k)},
+    return _parts(rec, edges.tolist())
+
+
+def _changes(x: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Indices ``i`` where ``x[i + 1]`` differs from ``x[i]`` (beyond round-off; NaN: none)."""
+    finite = np.abs(x[np.isfinite(x)])
+    tol = 1e-12 * max(1.0, float(finite.max()) if finite.size else 1.0)
+    with np.errstate(invalid="ignore"):
+        return np.flatnonzero(np.abs(np.diff(x)) > tol).astype(np.int64)
+
+
+def split_excited(
+    rec: Recording, k: int, inputs: Sequence[str], *, min_samples: int = 16
+) -> list[Recording]:
+    """Cut one recording into ``k`` contiguous parts in each of which every input moves.
+
+    A short real recording with a few input steps cut into equal parts gives
+    parts where an input is constant, which carry no information about its
+    dynamics (identification refuses them). The cuts here are placed as close
+    to the equal split as the data allow such that every part holds a change
+    of every input and at least ``min_samples`` samples, and each cut falls
+    where an input moves (the part after it starts with that change).
+
+    Parameters
+    ----------
+    rec : Recording
+    k : int
+        Number of parts, >= 2.
+    inputs : sequence of str
+        Input columns that must move in every part.
+    min_samples : int
+        Fewest samples of a part.
+
+    Returns
+    -------
+    list of Recording
+        Ids ``<id>-part<j>`` as :func:`split_recording`.
+
+    Raises
+    ------
+    IdentificationError
+        The inputs do not change often enough for ``k`` such parts.
+
+    Examples
+    --------
+    >>> u = np.r_[np.zeros(40), np.ones(5), np.zeros(45), np.ones(10)]  # two short pulses
+    >>> rec = Recording(np.arange(100.0), {"u": u, "y": u}, experiment_id="run")
+    >>> [p.n_samples for p in split_recording(rec, 2)]  # the second half is constant
+    [50, 50]
+    >>> [p.n_samples for p in split_excited(rec, 2, ["u"])]
+    [45, 55]
+    """
+    if int(k) != k or k < 2:
+        raise ConfigError(f"k is {k!r}; expected a whole number >= 2")
+    k = int(k)
+    n = rec.n_samples
+    missing = [c for c in inputs if c not in rec.columns]
+    if missing:
+        raise ConfigError(f"inputs {missing} are not columns of recording {rec.experiment_id!r}")
+    changes = [_changes(np.asarray(rec[c], dtype=float)) for c in inputs]
+    moves = np.unique(np.concatenate(changes)) + 1 if changes else np.arange(n)
+
+    def earliest_end(start: int) -> int:
+        # smallest end e such that [start, e) holds a change of every input: x[i] != x[i+1]
+        # with start <= i and i + 1 < e
+        e = start + int(min_samples)
+        for ch in changes:
+            j = int(np.searchsorted(ch, start))
+            if j >= ch.size:
+                return n + 1
+            e = max(e, int(ch[j]) + 2)
+        return e
+
+    def feasible(start: int, parts: int) -> bool:
+        for _ in range(parts - 1):
+            start = earliest_end(start)
+            if start > n:
+                return False
+        return earliest_end(start) <= n
+
+    if not feasible(0, k):
+        raise IdentificationError(
+            f"recording {rec.experiment_id!r}: the inputs {list(inputs)} do not change often "
+            f"enough for {k} parts in each of which every input moves ({n} samples, "
+            f"{min(ch.size for ch in changes) if changes else n} changes of the least "
+            "moving input)"
         )
-        parts.append(part)
+    edges = [0]
+    for j in range(1, k):
+        lo = earliest_end(edges[-1])
+        # the largest cut that still leaves room for the remaining parts (monotone)
+        a, b = lo, n
+        while a < b:
+            mid = (a + b + 1) // 2
+            if feasible(mid, k - j):
+                a = mid
+            else:
+                b = mid - 1
+        hi = a
+        target = round(j * n / k)
+        cand = moves[(moves >= lo) & (moves <= hi)]
+        if cand.size:  # cut where an input moves, nearest the equal split
+            cut = int(cand[np.argmin(np.abs(cand - target))])
+        else:
+            cut = int(np.clip(target, lo, hi))
+        edges.append(cut)
+    edges.append(n)
+    return _parts(rec, edges)
+
+
+def _parts(rec: Recording, edges: Sequence[int]) -> list[Recording]:
+    k = len(edges) - 1
+    parts = []
+    for j in range(k):
+        sel = slice(int(edges[j]), int(edges[j + 1]))
+        parts.append(
+            Recording(
+                rec.time[sel],
+                {c: rec[c][sel] for c in rec.columns},
+                units=dict(rec.units),
+                roles=dict(rec.roles),
+                experiment_id=f"{rec.experiment_id or 'recording'}-part{j + 1}",
+                source=rec.source,
+                meta={**rec.meta, "part": j + 1, "of": k},
+            )
+        )
     return parts
+
+
+def make_folds(
+    recordings: Sequence[Recording],
+    k: int,
+    inputs: Sequence[str],
+    *,
+    min_samples: int = 16,
+) -> tuple[list[list[Recording]] | None, list[str]]:
+    """Folds for :func:`cross_validate_order` with excitation in each, or a stated fallback.
+
+    Several recordings (at least ``k``) are dealt round robin into ``k``
+    folds. One recording is cut with :func:`split_excited`; when it cannot
+    give ``k`` parts with every input moving, fewer parts are tried (down to
+    2); when not even two such parts exist there is no cross-validation
+    (``None``). Every departure from what was asked is described in the
+    returned notes (the CLI prints them as ``cv_fallback`` warnings).
+
+    Returns
+    -------
+    folds : list of list of Recording, or None
+    notes : list of str
+    """
+    if int(k) != k or k < 2:
+        raise ConfigError(f"--folds {k!r}: expected a whole number >= 2")
+    k = int(k)
+    recs = list(recordings)
+    if not recs:
+        raise ConfigError("no recording to cross-validate on")
+    if len(recs) >= k:
+        return [recs[f::k] for f in range(k)], []
+    if len(recs) > 1:
+        raise ConfigError(
+            f"--folds {k} with {len(recs)} recordings: give one recording (it is cut into "
+            f"{k} parts) or at least {k}"
+        )
+    rec = recs[0]
+    notes: list[str] = []
+    equal = split_recording(rec, k)
+    if all(_moves(p, inputs) for p in equal):
+        return [[p] for p in equal], notes
+    for kk in range(k, 1, -1):
+        try:
+            parts = split_excited(rec, kk, inputs, min_samples=min_samples)
+        except IdentificationError:
+            continue
+        sizes = ", ".join(str(p.n_samples) for p in parts)
+        if kk == k:
+            notes.append(
+                f"equal parts would leave an input constant in a fold; cut the recording "
+                f"where the inputs move instead ({kk} parts of {sizes} samples)"
+            )
+        else:
+            notes.append(
+                f"the inputs do not move often enough for {k} folds with excitation in each; "
+                f"used {kk} folds ({sizes} samples)"
+            )
+        return [[p] for p in parts], notes
+    notes.append(
+        f"the inputs of recording {rec.experiment_id!r} do not move in two separate parts; "
+        "no cross-validation: the order comes from the singular values instead"
+    )
+    return None, notes
+
+
+def _moves(rec: Recording, inputs: Sequence[str]) -> bool:
+    return all(_changes(np.asarray(rec[c], dtype=float)).size > 0 for c in inputs)
 
 
 def _as_folds(
@@ -313,7 +514,7 @@ def cross_validate_order(
         va = np.array([np.mean([f[i, i] for i in range(k)]) for f in fits])
     va_safe = np.where(np.isfinite(va), va, -np.inf)
     best = int(orders_a[int(np.argmax(va_safe))])  # n* = argmax VA, eq (10)
-    parsimonious = int(orders_a[int(np.argmax(va_safe >= va_safe.max() - tolerance))])
+    parsimonious = int(orders_a[parsimonious_index(va, tolerance)])
     return OrderCV(
         orders=orders_a,
         fits=fits,

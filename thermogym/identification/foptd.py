@@ -57,6 +57,7 @@ from scipy.signal import lfilter
 
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.fitresult import FitResult
+from thermogym.identification.advice import FitWarning, check_fit
 from thermogym.identification.linear_fit import (
     OPERATING_POINTS,
     data_entries,
@@ -65,6 +66,7 @@ from thermogym.identification.linear_fit import (
     operating_point,
     signal_arrays,
 )
+from thermogym.models._blas import single_blas_thread
 from thermogym.models.linear import FOPTDModel, discrete_to_foptd
 from thermogym.recording import Recording
 
@@ -336,7 +338,7 @@ def _oe_columns(
     r0 = 0
     for e, u in enumerate(us):
         n = u.shape[0]
-        decay = a ** np.arange(n, dtype=float)
+        decay = np.exp(np.arange(n, dtype=float) * np.log(a))  # a^k
         for i in range(m):
             X[r0 : r0 + n, i] = lfilter([0.0, 1.0], [1.0, -a], _shift(u[:, i], int(d[i])))
             if not free:  # the lag starts settled at u[0]: z = b u[0] / (1 − a)
@@ -361,15 +363,28 @@ def _oe_solve(
     G = X.T @ X
     scale = np.sqrt(np.maximum(np.diag(G), 1e-300))
     Gs = G / np.outer(scale, scale)
-    th = (np.linalg.pinv(Gs, rcond=1e-12, hermitian=True) @ ((X.T @ y) / scale)) / scale
+    rhs = (X.T @ y) / scale
+    try:
+        th = np.linalg.solve(Gs, rhs) / scale
+        if not np.isfinite(th).all():
+            raise np.linalg.LinAlgError
+    except np.linalg.LinAlgError:  # collinear columns: the minimum-norm solution
+        th = (np.linalg.pinv(Gs, rcond=1e-12, hermitian=True) @ rhs) / scale
     r = y - X @ th
     return float(r @ r) / y.size, th, X
 
 
 def _oe_search(
-    us: list[NDArray[np.float64]], y: NDArray[np.float64], d: NDArray[np.int64], free: bool
+    us: list[NDArray[np.float64]],
+    y: NDArray[np.float64],
+    d: NDArray[np.int64],
+    free: bool,
+    xatol: float = 1e-5,
 ) -> tuple[float, float, float]:
-    """Pole of the best output-error fit: ``(a, mse, curvature of the rss in ln T)``."""
+    """Pole of the best output-error fit: ``(a, mse, curvature of the rss in ln T)``.
+
+    ``xatol`` is the tolerance on ``ln T`` (1e-2: the time constant to 1 %).
+    """
     from scipy.optimize import minimize_scalar
 
     n_max = max(u.shape[0] for u in us)
@@ -378,7 +393,7 @@ def _oe_search(
     def loss(lnT: float) -> float:
         return _oe_solve(us, y, d, float(np.exp(-np.exp(-lnT))), free)[0]
 
-    res = minimize_scalar(loss, bounds=(lo, hi), method="bounded", options={"xatol": 1e-5})
+    res = minimize_scalar(loss, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
     x = float(res.x)
     if not np.isfinite(res.fun):
         return float("nan"), float("inf"), float("nan")
@@ -447,6 +462,7 @@ def _prefer_free(tied: _Estimated, loose: _Estimated) -> bool:
     return not bool(np.any(sure & flipped))
 
 
+@single_blas_thread  # thousands of small products: extra BLAS threads only cost (_blas)
 def _fit_output_estimate(
     us: list[NDArray[np.float64]],
     ys: list[NDArray[np.float64]],
@@ -464,27 +480,37 @@ def _fit_output_estimate(
             "nothing to identify (check the column and that the inputs reach it)"
         )
 
-    # stage 1 scores a delay by the output error at the best of a coarse grid of poles
-    # (time constants from half a sample to ten record lengths) and the equation-error pole
-    n_max = max(u.shape[0] for u in us)
-    grid = np.exp(-1.0 / np.geomspace(0.5, 10.0 * n_max, 14))
-
+    # stage 1 scores a delay by the output error at its best pole (searched to 1 % in T;
+    # the equation-error criterion by the least-squares residual of (9))
     def stage1(trial: NDArray[np.int64]) -> float:
-        a, mse_eq = _equation_pole(us, ys, trial)
         if criterion == "equation":
+            a, mse_eq = _equation_pole(us, ys, trial)
             return mse_eq if 0.0 < a < 1.0 else float("inf")
-        poles = [*grid, a] if 0.0 < a < 1.0 else grid
-        return min(_oe_solve(us, y, trial, float(p), free)[0] for p in poles)
+        return _oe_search(us, y, trial, free, xatol=1e-2)[1]
 
     d = np.full(m, int(delays[0]), dtype=np.int64)
     profile = np.full((m, delays.size), np.inf)
     best = np.inf
+    # a long delay range is scanned on a coarse grid first (the profile is smooth in the
+    # delay), then at full resolution around the three best coarse candidates
+    stride = max(1, int(np.ceil(delays.size / 40)))
     for _sweep in range(6):
         changed = False
         for i in range(m):
-            for k, cand in enumerate(delays):
+            ks = list(range(0, delays.size, stride))
+            if stride > 1:
+                for k in ks:
+                    trial = d.copy()
+                    trial[i] = delays[k]
+                    profile[i, k] = stage1(trial)
+                top = sorted(ks, key=lambda k: profile[i, k])[:3]
+                ks = sorted(
+                    {j for k in top for j in range(k - stride + 1, k + stride)}
+                    & set(range(delays.size)) - set(ks)
+                )
+            for k in ks:
                 trial = d.copy()
-                trial[i] = cand
+                trial[i] = delays[k]
                 profile[i, k] = stage1(trial)
             k_best = int(np.argmin(profile[i]))
             val = float(profile[i, k_best])
@@ -847,6 +873,7 @@ def fit_foptd(
     fit.metrics["train"] = evaluate_fit(fit, train_recs)
     if vals:
         fit.metrics["validation"] = evaluate_fit(fit, vals)
+    fit.add_warnings(_warnings(fit, K, T, tau, dt, delays, n_min, outputs, exo, units))
     return FOPTDResult(
         fit=fit,
         model=model,
@@ -858,3 +885,40 @@ def fit_foptd(
         dt=dt,
         seconds=seconds,
     )
+
+
+def _warnings(
+    fit: FitResult,
+    K: NDArray[np.float64],
+    T: NDArray[np.float64],
+    tau: NDArray[np.float64],
+    dt: float,
+    delays: NDArray[np.int64],
+    n_min: int,
+    outputs: Sequence[str],
+    exo: Sequence[str],
+    units: dict[str, str],
+) -> list[FitWarning]:
+    """Fits below zero, gain signs, time constants at the bound, delays at the range's edge."""
+    out = check_fit(fit, units=units)
+    for j, o in enumerate(outputs):
+        for i, c in enumerate(exo):
+            if T[j, i] >= 9.0 * n_min * dt:
+                out.append(
+                    FitWarning(
+                        "time_constant_bound",
+                        f"time constant of output {o!r} after {c!r} is {T[j, i]:.4g} s, at "
+                        f"the search bound (ten record lengths): the record does not settle "
+                        f"enough to tell the gain ({K[j, i]:.4g}) from the time constant",
+                    )
+                )
+            if delays.size > 1 and round(tau[j, i] / dt) >= int(delays[-1]):
+                out.append(
+                    FitWarning(
+                        "order_at_edge",
+                        f"the delay of output {o!r} after {c!r} is {tau[j, i]:.4g} s, the "
+                        f"largest searched ({int(delays[-1])} samples): the best may lie beyond; "
+                        "raise the largest delay (--max-delay-s)",
+                    )
+                )
+    return out

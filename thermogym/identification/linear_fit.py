@@ -10,12 +10,16 @@
   ``detrend``), ``"none"`` zero (data already prepared, e.g. the spindle's
   temperature rises above ambient). The FitResult stores the mode and the
   training values in ``settings["operating_point"]``.
-* :func:`predict_fit` simulates an ``ss`` or ``foptd`` FitResult on a
-  recording the way the identification evaluated it (operating point of that
-  recording, initial state estimated or zero) and :func:`evaluate_fit` turns
-  that into the metrics of :mod:`thermogym.identification.metrics`.
-  :func:`simulate_recording` is the same as a recording, for
-  ``thermogym simulate --params fit.json``.
+* :func:`predict` simulates (or predicts ``k_step`` ahead) an ``ss`` or
+  ``foptd`` FitResult on a recording: the model's own operating point (stored
+  in the fit's ``model_config``; older ``ss`` fits keep it in the settings) or
+  the recording's, and the initial state ``x0`` = ``"estimate"`` (least
+  squares on the recording's outputs), ``"steady"`` or ``"zero"``
+  (``"auto"``: estimate when the outputs are there). Every command that shows
+  a linear fit on data goes through it, so they agree; the diagnosis and other
+  callers use it too. :func:`predict_fit` returns just the outputs,
+  :func:`evaluate_fit` the metrics of :mod:`thermogym.identification.metrics`,
+  :func:`simulate_recording` a recording (``thermogym simulate --params``).
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ from thermogym.models.linear import X0_MODES, FOPTDModel, StateSpaceModel
 from thermogym.recording import Recording
 
 __all__ = [
+    "LINEAR_MODELS",
     "OPERATING_CHOICES",
     "OPERATING_POINTS",
     "X0_CHOICES",
@@ -51,6 +56,10 @@ __all__ = [
     "simulate_recording",
 ]
 
+#: Models :func:`predict` simulates: ``ss``, ``foptd`` and, through their exact
+#: state-space realisation at the recording's period, the polynomial (ARX family)
+#: and SOPDT models of :mod:`thermogym.identification.pem`.
+LINEAR_MODELS: tuple[str, ...] = ("ss", "foptd", "sopdt", "arx", "armax", "oe", "bj")
 #: Operating-point modes (see the module docstring).
 OPERATING_POINTS: tuple[str, ...] = ("none", "initial", "mean", "rest")
 
@@ -208,6 +217,10 @@ class Prediction:
         Operating point applied (absolute units).
     operating : str
         ``"fit"`` (the FitResult's) or ``"recording"`` (the recording's own).
+    horizon : int or None
+        Prediction horizon in samples (``None``: simulation).
+    note : str
+        How a requested horizon was treated, when not as asked.
     """
 
     outputs: NDArray[np.float64]
@@ -217,6 +230,8 @@ class Prediction:
     u_op: NDArray[np.float64]
     y_op: NDArray[np.float64]
     operating: str
+    horizon: int | None = None
+    note: str = ""
 
 
 def fit_model(
@@ -224,6 +239,7 @@ def fit_model(
     *,
     u_op: NDArray[np.float64] | None = None,
     y_op: NDArray[np.float64] | None = None,
+    dt: float | None = None,
 ) -> tuple[FOPTDModel | StateSpaceModel, NDArray[np.float64]]:
     """The model of an ``ss`` or ``foptd`` FitResult with its operating point, and theta.
 
@@ -232,18 +248,26 @@ def fit_model(
     and get it from there); ``u_op``/``y_op`` replace it (FOPTD: ``y_op``
     becomes the offsets ``y0``).
 
+    A polynomial (``arx``, ``armax``, ``oe``, ``bj``) or ``sopdt`` fit is
+    returned as its exact deterministic state-space realisation at period
+    ``dt`` (default: the model's own, or the training period stored in the
+    fit), with the operating point of ``settings["operating_point"]``.
+
     Returns
     -------
     model : FOPTDModel or StateSpaceModel
     theta : ndarray, shape (1, P)
     """
     fit = load_fit(fit)
-    if fit.model not in ("ss", "foptd"):
+    if fit.model not in LINEAR_MODELS:
         raise ConfigError(
-            f"this needs an 'ss' or 'foptd' FitResult (a linear model); this one is {fit.model!r}"
+            f"this needs a FitResult of a linear model {list(LINEAR_MODELS)}; this one is "
+            f"{fit.model!r}"
         )
     model = fit.build_model()
     theta = fit.theta(model)
+    if not isinstance(model, FOPTDModel | StateSpaceModel):
+        return _realized(fit, model, theta, dt, u_op, y_op)
     if u_op is None and y_op is None:
         return model, theta  # type: ignore[return-value]
     cfg = dict(model.config())
@@ -262,12 +286,54 @@ def fit_model(
     return new, new.theta(params)
 
 
+def _realized(
+    fit: FitResult,
+    model: Any,
+    theta: NDArray[np.float64],
+    dt: float | None,
+    u_op: NDArray[np.float64] | None,
+    y_op: NDArray[np.float64] | None,
+) -> tuple[StateSpaceModel, NDArray[np.float64]]:
+    """A polynomial or SOPDT fit as a deterministic :class:`StateSpaceModel`."""
+    from thermogym.models.process import discrete_realization
+
+    period = dt or getattr(model, "dt", None) or fit.settings.get("dt")
+    if period is None:
+        raise ConfigError(f"the {fit.model} fit stores no sample period; give dt")
+    r, _ = discrete_realization(model, theta, float(period))
+    if r.A.shape[1] == 0:  # a pure gain: one inert state
+        A, B, C = np.zeros((1, 1)), np.zeros((1, r.B.shape[2])), np.zeros((r.C.shape[1], 1))
+    else:
+        A, B, C = r.A[0], r.B[0], r.C[0]
+    op = fit.settings.get("operating_point") or {}
+    exo, outs = list(model.exogenous_names), list(model.output_names)
+    if u_op is None:
+        u_op = np.array([float(op.get("inputs", {}).get(c, 0.0)) for c in exo])
+    if y_op is None:
+        y_op = np.array([float(op.get("outputs", {}).get(c, 0.0)) for c in outs])
+    ss = StateSpaceModel.from_matrices(
+        A,
+        B,
+        C,
+        r.D[0],
+        dt=float(period),
+        inputs=[s.name for s in model.inputs],
+        outputs=outs,
+        disturbances=[s.name for s in model.disturbances],
+        units={s.name: s.unit for s in model.signals},
+        u_op=np.asarray(u_op, dtype=float),
+        y_op=np.asarray(y_op, dtype=float),
+    )
+    return ss, ss.theta()
+
+
 def predict(
     fit: FitResult | str | Mapping[str, Any],
     rec: Recording,
     *,
     x0: str = "auto",
     operating: str = "auto",
+    k_step: int | None = None,
 ) -> Prediction:
     """Simulate a linear FitResult (``ss`` or ``foptd``) on a recording's inputs.
 
@@ -298,6 +364,12 @@ def predict(
         ``"rest"`` (the model describes deviations from each experiment's
         start), the fit's otherwise. Fits whose offsets were estimated (mode
         ``"estimate"``) and recordings without outputs always use the fit's.
+    k_step : int, optional
+        Predict ``k_step`` samples ahead from the measured outputs (MATLAB
+        ``compare(data, sys, k)``) with the state-space innovation gain; a
+        model without a noise model (FOPTD, ``ss`` without ``K``) predicts as
+        it simulates (an output-error structure), and ``note`` says so.
+        Default: simulation (infinite horizon).
 
     Returns
     -------
@@ -323,7 +395,7 @@ def predict(
         raise ConfigError(f"x0 is {x0!r}; expected one of {list(X0_CHOICES)}")
     if operating not in OPERATING_CHOICES:
         raise ConfigError(f"operating is {operating!r}; expected one of {list(OPERATING_CHOICES)}")
-    model, theta = fit_model(fit)
+    model, theta = fit_model(fit, dt=rec.dt)
     exo = list(model.exogenous_names)
     outs = list(model.output_names)
     missing = [c for c in exo if c not in rec.columns]
@@ -342,8 +414,8 @@ def predict(
     if operating == "auto":
         operating = "recording" if mode_op in ("initial", "rest") else "fit"
     if operating == "recording" and y is not None and mode_op in OPERATING_POINTS:
-        u_rec, y_rec = operating_point(u, y, str(op["mode"]))
-        model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec)
+        u_rec, y_rec = operating_point(u, y, str(mode_op))
+        model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec, dt=rec.dt)
         used = "recording"
     mode = x0
     if mode == "auto":
@@ -353,6 +425,32 @@ def predict(
             f"x0='estimate' needs the output column(s) {outs} in recording "
             f"{rec.experiment_id!r}; it has {list(rec.columns)} (use x0='steady' or 'zero')"
         )
+    horizon: int | None = None
+    note = ""
+    if k_step is not None:
+        if isinstance(k_step, bool) or int(k_step) != k_step or k_step < 1:
+            raise ConfigError(f"k_step is {k_step!r}; expected a whole number of samples >= 1")
+        horizon = int(k_step)
+        if y is None:
+            raise RecordingError(
+                f"a {horizon}-step prediction needs the measured outputs {outs} in recording "
+                f"{rec.experiment_id!r}"
+            )
+        if not (isinstance(model, StateSpaceModel) and model.has_K):
+            note = (
+                f"{fit.model} fit without a noise model: its {horizon}-step prediction is its "
+                "simulation (output-error structure)"
+            )
+        elif model.dt is not None and abs(model.dt - rec.dt) > 1e-9 * model.dt:
+            raise RecordingError(
+                f"a {horizon}-step prediction runs at the model's period {model.dt!r} s; "
+                f"recording {rec.experiment_id!r} is sampled at {rec.dt!r} s (resample it)"
+            )
+        else:
+            xi = model.start_state(mode, u, rec.dt, theta, y=y if mode == "estimate" else None)
+            yk = model.predict(y, u, theta, x0=xi, horizon=horizon)[0]
+            u_op, y_op = (a[0] for a in model.operating_point(theta))
+            return Prediction(yk, tuple(outs), mode, xi[0], u_op, y_op, used, horizon)
     sim = model.simulate(
         u,
         rec.dt,
@@ -364,7 +462,9 @@ def predict(
     )
     assert sim.states is not None
     u_op, y_op = (a[0] for a in model.operating_point(theta))
-    return Prediction(sim.outputs[0], tuple(outs), mode, sim.states[0, 0].copy(), u_op, y_op, used)
+    return Prediction(
+        sim.outputs[0], tuple(outs), mode, sim.states[0, 0].copy(), u_op, y_op, used, horizon, note
+    )
 
 
 def predict_fit(

@@ -9,7 +9,11 @@
   order with ``n* = argmax VA`` (paper 001 Fig. 15);
 * :func:`plot_va_matrix` — a train × test VA matrix as a heat map (paper 001
   Figs. 16a/17a);
-* :func:`plot_delay_loss` — the loss of the FOPTD delay search.
+* :func:`plot_delay_loss` — the loss of the FOPTD delay search;
+* :func:`plot_compare` — several models against one recording (MATLAB
+  ``compare``), fit per output in the legend;
+* :func:`plot_resid` — residual autocorrelation and input cross-correlation
+  with their confidence bounds (MATLAB ``resid``).
 
 Numerical modules never import this one.
 """
@@ -27,9 +31,11 @@ from thermogym.plotting import plt, save_figure, time_axis
 from thermogym.recording import Recording
 
 __all__ = [
+    "plot_compare",
     "plot_delay_loss",
     "plot_fit",
     "plot_order_cv",
+    "plot_resid",
     "plot_singular_values",
     "plot_va_matrix",
 ]
@@ -192,5 +198,96 @@ def plot_delay_loss(result: Any, path: str | Path, *, title: str | None = None) 
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)
     ax.set_title(title or "FOPTD delay search (000 section 4.1)", fontsize=10)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_compare(comparison: Any, path: str | Path, *, title: str | None = None) -> Path:
+    """Measured outputs and every model's prediction, one panel per output.
+
+    Parameters
+    ----------
+    comparison : Comparison
+        From :func:`thermogym.identification.compare.compare`.
+    path : path
+        PNG to write.
+    title : str, optional
+    """
+    rec = comparison.recording
+    outs = list(comparison.outputs)
+    n = len(outs)
+    fig, axes = plt.subplots(n, 1, figsize=(9, 1.9 * n + 0.9), sharex=True, squeeze=False)
+    t, xlabel = time_axis(rec.time, relative=True)
+    styles = ["--", "-.", ":", (0, (5, 1, 1, 1))]
+    for ax, name in zip(axes[:, 0], outs, strict=True):
+        ax.plot(t, rec[name], lw=0.9, color="0.2", label="measured")
+        for i, m in enumerate(comparison.models):
+            if name not in m.outputs:
+                continue
+            how = f"{m.horizon}-step" if m.horizon else "sim."
+            ax.plot(
+                t,
+                m.outputs[name],
+                linestyle=styles[i % len(styles)],
+                lw=1.1,
+                label=f"{m.label} ({how}, fit {100 * m.fits[name]:.2f} %)",
+            )
+        unit = rec.units.get(name, "")
+        ax.set_ylabel(f"{name}\n[{unit}]" if unit else name, fontsize=7)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=6, loc="best")
+    axes[-1, 0].set_xlabel(xlabel)
+    fig.suptitle(title or f"compare: {rec.experiment_id or 'recording'}", fontsize=10)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def plot_resid(
+    tests: Mapping[str, Any], path: str | Path, *, dt: float = 1.0, title: str | None = None
+) -> Path:
+    """Residual tests, one column per output (MATLAB ``resid``).
+
+    Top row: the residual's autocorrelation for lags 0..M with the band white
+    residuals stay in; below: its cross-correlation with each input for lags
+    −M..M (positive lag: the input acting before) with the independence band.
+
+    Parameters
+    ----------
+    tests : mapping
+        Output → :class:`~thermogym.identification.diagnosis.residuals.ResidualTest`
+        (from :func:`thermogym.identification.compare.resid`).
+    path : path
+    dt : float
+        Sample period [s] (lags are shown in samples and seconds).
+    title : str, optional
+    """
+    outs = list(tests)
+    inputs = list(next(iter(tests.values())).xcorr) if tests else []
+    rows = 1 + len(inputs)
+    fig, axes = plt.subplots(
+        rows, len(outs), figsize=(4.2 * len(outs) + 1, 2.0 * rows + 0.8), squeeze=False
+    )
+    for c, name in enumerate(outs):
+        t = tests[name]
+        M = t.max_lag
+        lags = np.arange(M + 1)
+        ax = axes[0, c]
+        ax.bar(lags, t.autocorr, width=0.6, color="tab:blue")
+        ax.axhspan(-t.bound, t.bound, color="tab:orange", alpha=0.25, lw=0)
+        ax.set_title(f"{name}: autocorrelation (p = {t.p_white:.3g})", fontsize=8)
+        ax.set_xlabel(f"lag [samples of {dt:g} s]", fontsize=7)
+        ax.grid(alpha=0.3)
+        for r, u in enumerate(inputs, start=1):
+            ax = axes[r, c]
+            lx = np.arange(-M, M + 1)
+            ax.bar(lx, t.xcorr[u], width=0.6, color="tab:green")
+            b = t.xbound[u]
+            ax.axhspan(-b, b, color="tab:orange", alpha=0.25, lw=0)
+            ax.set_title(
+                f"{name} × {u}: cross-correlation (p = {t.p_independent[u]:.3g})", fontsize=8
+            )
+            ax.set_xlabel("lag [samples] (> 0: input before the residual)", fontsize=7)
+            ax.grid(alpha=0.3)
+    fig.suptitle(title or "residual tests", fontsize=10)
     fig.tight_layout()
     return save_figure(fig, path)

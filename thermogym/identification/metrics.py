@@ -13,6 +13,14 @@ accuracy ξ                  1 − ‖y_m − y‖ / ‖y‖                    
 confidence interval P       x̄ ± t σ / √n                                    002 eq (23)
 ==========================  ==============================================  =====================
 
+**One name and scale.** The NRMSE fit of 001 eq (5) is *the fit* (MATLAB's
+``compare`` calls it "fit" too). The API and every JSON file (FitResult
+metrics ``nrmse``/``mnrmse``, cross-validation ``TA``/``VA``) hold it as a
+**fraction** (1 = perfect, 0 = as good as the output's mean, below 0 =
+worse); everything a person reads (command output, reports, figures) shows
+the same number as **percent** with the word "fit", through :func:`fit_text`:
+``0.843`` is shown as ``fit 84.30 %``.
+
 All functions take arrays whose **last axis is time**, so a batch of
 simulations ``(B, T)`` or several outputs ``(n_y, T)`` are evaluated at once;
 they return one value per leading index. Samples where the measurement is NaN
@@ -34,6 +42,7 @@ __all__ = [
     "accuracy_xi",
     "confidence_interval",
     "fit_report",
+    "fit_text",
     "mnrmse",
     "nrmse",
     "rmse",
@@ -296,3 +305,17 @@ def fit_report(
     vals = [v for v in out["nrmse"].values() if np.isfinite(v)]  # type: ignore[union-attr]
     out["mnrmse"] = float(np.mean(vals)) if vals else float("nan")
     return out
+
+
+def fit_text(value: float) -> str:
+    """An NRMSE fit (fraction) as people read it: percent, two decimals.
+
+    Examples
+    --------
+    >>> fit_text(0.8431), fit_text(-1.39), fit_text(float("nan"))
+    ('84.31 %', '-139.00 %', 'n/a')
+    """
+    v = float(value)
+    if not np.isfinite(v):
+        return "n/a"
+    return f"{100.0 * v:.2f} %"

@@ -80,6 +80,7 @@ from scipy.signal import fftconvolve
 
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.fitresult import FitResult
+from thermogym.identification.advice import check_fit
 from thermogym.identification.linear_fit import (
     OPERATING_POINTS,
     data_entries,
@@ -1266,6 +1267,7 @@ def system_fitresult(
         fit.metrics["train"] = evaluate_fit(fit, prob.recordings)
         if validate:
             fit.metrics["validation"] = evaluate_fit(fit, list(validate))
+        fit.add_warnings(check_fit(fit, units=prob.units))
     return fit
 
 

@@ -35,6 +35,8 @@ def _load_builtin() -> None:
         ("thermogym.models.room", ("room",)),
         ("thermogym.models.linear", ("ss", "foptd")),
         ("thermogym.models.tclab", ("tclab",)),
+        ("thermogym.models.polynomial", ("arx", "armax", "oe", "bj")),
+        ("thermogym.models.process", ("sopdt",)),
         ("thermogym.models.augmented", ("augmented",)),
     ):
         try:

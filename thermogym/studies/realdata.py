@@ -270,12 +270,14 @@ def identify_case(case: Case | str, *, orders: Sequence[int] | None = None) -> C
         train,
         list(c.inputs),
         list(c.outputs),
-        cv.best_order,
+        cv.chosen_order,
         operating_point_mode=op,
         validate=vals,
     )
     ss.fit.settings["cross_validation"] = cv.to_dict()
-    ss.fit.settings["order_source"] = "2-fold cross-validation on the training data (eq 10)"
+    ss.fit.settings["order_source"] = (
+        "2-fold cross-validation on the training data (smallest order within tolerance)"
+    )
     t3 = time.perf_counter()
     summary = {
         "case": c.name,
@@ -294,8 +296,8 @@ def identify_case(case: Case | str, *, orders: Sequence[int] | None = None) -> C
             "seconds": fo.seconds,
         },
         "n4sid": {
-            "order": cv.best_order,
-            "parsimonious_order": cv.parsimonious_order,
+            "order": cv.chosen_order,
+            "argmax_order": cv.best_order,
             "cv_VA": float(np.max(cv.va)),
             "train_mnrmse": ss.fit.metrics["train"]["mnrmse"],
             "validation_mnrmse": ss.fit.metrics["validation"]["mnrmse"],

@@ -485,9 +485,10 @@ def read_config(
         base = Path(base_dir) if base_dir is not None else path.resolve().parent
         default_name = path.stem
     base = base.resolve()
-    evaluation = dict(data.pop("evaluation", None) or {})
-    if not isinstance(evaluation, dict):
+    evaluation = data.pop("evaluation", None) or {}
+    if not isinstance(evaluation, Mapping):
         raise _err(source, "evaluation", f"is a {type(evaluation).__name__}, expected a table")
+    evaluation = dict(evaluation)
     for k, v in overrides.items():
         if k in _EVAL_KEYS:
             evaluation[k] = v

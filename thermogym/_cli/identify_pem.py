@@ -1,0 +1,329 @@
+r"""``thermogym identify arx|armax|oe|bj|sopdt|ssest|auto``: prediction-error identification.
+
+Examples
+--------
+The family with the best cross-validated fit (orders, delays, structure and
+operating point chosen on the training data)::
+
+    thermogym identify auto dataset:hair_dryer --inputs u --outputs y --out dryer.json
+
+An output-error model with orders by 2-fold cross-validation, or given as
+MATLAB's ``oe(data, [nb nf nk])``::
+
+    thermogym identify oe run.csv --inputs P --outputs T --out oe.json
+    thermogym identify oe run.csv --inputs P --outputs T --nb 2 --nf 2 --nk 3 --out oe.json
+
+N4SID refined by PEM, order / feedthrough / input delay by cross-validation
+(MATLAB ``ssest``)::
+
+    thermogym identify ssest run.csv --inputs q --outputs th --out ss.json
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from thermogym._cli.common import CliParser, plan_outputs, seconds, whole
+from thermogym._cli.data import (
+    add_data_options,
+    add_prepare_option,
+    hoist_recordings,
+    load_recordings,
+    parse_prepare,
+)
+from thermogym.errors import ConfigError
+from thermogym.identification.linear_fit import X0_CHOICES
+
+METHODS = ("arx", "armax", "oe", "bj", "sopdt", "ssest", "auto")
+_OP_MODES = ("auto", "mean", "none", "initial", "rest")
+
+
+def _ints(name: str, text: str | None) -> Any:
+    """``3`` or ``1,2`` (per input) or ``1,2;3,4`` (per output; per input)."""
+    if text is None:
+        return None
+    try:
+        rows = [[int(v) for v in row.split(",")] for row in text.split(";")]
+    except ValueError:
+        raise ConfigError(
+            f"--{name} {text!r}: expected whole numbers, e.g. 2, or 2,1 (one per input), or "
+            "2,1;1,1 (rows per output)"
+        ) from None
+    if any(v < 0 for row in rows for v in row):
+        raise ConfigError(f"--{name} {text!r}: expected whole numbers >= 0")
+    if len(rows) == 1 and len(rows[0]) == 1:
+        return rows[0][0]
+    if len(rows) == 1:
+        return [rows[0]]
+    return rows
+
+
+def build_parser(method: str) -> argparse.ArgumentParser:
+    """Options of ``thermogym identify METHOD`` for the PEM families."""
+    desc = {
+        "arx": "ARX by least squares; orders and delays by cross-validation (MATLAB arx)",
+        "armax": "ARMAX by prediction-error minimisation (MATLAB armax)",
+        "oe": "output-error model by simulation-error minimisation (MATLAB oe)",
+        "bj": "Box-Jenkins model by prediction-error minimisation (MATLAB bj)",
+        "sopdt": "second-order-plus-dead-time transfer functions (MATLAB procest P2D)",
+        "ssest": "N4SID refined by PEM; order, feedthrough, input delay by "
+        "cross-validation (MATLAB ssest)",
+        "auto": "the family (ARX, OE, SOPDT, ssest) with the best cross-validated fit",
+    }[method]
+    p = CliParser(prog=f"thermogym identify {method}", description=desc)
+    p.add_argument(
+        "data", nargs="+", help="training recordings: CSV/Parquet files, folders, dataset:NAME"
+    )
+    p.add_argument("--validate", nargs="+", default=[], metavar="DATA", help="validation data")
+    p.add_argument("--model", help="thermogym plant whose signal names to use")
+    p.add_argument("--inputs", help="exogenous columns, comma separated")
+    p.add_argument("--outputs", help="output columns, comma separated")
+    p.add_argument("--disturbances", help="which inputs are disturbances (default: roles)")
+    add_prepare_option(p)
+    add_data_options(p)
+    p.add_argument(
+        "--operating-point",
+        choices=_OP_MODES,
+        default="auto",
+        help="subtracted from each experiment; auto (default): 'mean' or 'none', whichever "
+        "cross-validates better with an ARX model",
+    )
+    p.add_argument(
+        "--folds",
+        type=whole(2, 100, what="a number of folds"),
+        default=2,
+        help="cross-validation folds (default 2)",
+    )
+    p.add_argument(
+        "--x0",
+        choices=X0_CHOICES,
+        default="auto",
+        help="initial state when the fit is simulated on the recordings (metrics, plots): "
+        "estimate, steady, zero; auto (default): estimate",
+    )
+    p.add_argument("--out", required=True, help="FitResult JSON to write")
+    p.add_argument("--plots", help="folder for figures")
+    if method in ("arx", "armax", "oe", "bj"):
+        for k, what in (
+            ("na", "order of A"),
+            ("nb", "number of B coefficients"),
+            ("nc", "order of C"),
+            ("nd", "order of D"),
+            ("nf", "order of F"),
+            ("nk", "input delays [samples]"),
+        ):
+            if (
+                k in ("nb", "nk")
+                or k[1] in {"arx": "a", "armax": "ac", "oe": "f", "bj": "fcd"}[method]
+            ):
+                p.add_argument(f"--{k}", help=f"{what} (default: cross-validation)")
+        p.add_argument("--focus", choices=("prediction", "simulation"))
+    if method in ("arx", "armax", "oe", "bj", "auto"):
+        default = 10 if method in ("arx", "auto") else 6
+        p.add_argument(
+            "--max-order",
+            type=whole(1, 50, what="a model order"),
+            default=default,
+            help=f"largest order tried (default {default}; auto: ARX, the others up to 4)",
+        )
+        p.add_argument(
+            "--max-delay",
+            type=whole(0, 10_000, what="a delay in samples"),
+            default=10,
+            help="largest delay tried [samples] (default 10)",
+        )
+    if method == "sopdt":
+        p.add_argument(
+            "--max-delay-s", type=seconds(what="a largest delay"), help="largest delay [s]"
+        )
+    if method == "ssest":
+        g = p.add_mutually_exclusive_group()
+        g.add_argument(
+            "--order",
+            type=whole(1, 500, what="a model order"),
+            help="model order (default: cross-validation)",
+        )
+        g.add_argument("--orders", default="1:8", help="candidate orders A:B (default 1:8)")
+        p.add_argument("--feedthrough", choices=("auto", "yes", "no"), default="auto")
+        p.add_argument("--input-delay", help="input delay [samples] or auto (default)")
+        p.add_argument(
+            "--max-delay",
+            type=whole(0, 10_000, what="a delay in samples"),
+            default=5,
+            help="largest input delay tried [samples] (default 5)",
+        )
+        p.add_argument("--no-refine", action="store_true", help="N4SID only, no PEM refinement")
+        p.add_argument("--focus", choices=("prediction", "simulation"), default="simulation")
+    if method == "auto":
+        p.add_argument("--families", default="arx,oe,sopdt,ssest", help="families compared")
+    return p
+
+
+def choose_operating_point(
+    train: list[Any], inputs: list[str], outputs: list[str], dist: list[str] | None, folds: int
+) -> tuple[str, dict[str, float]]:
+    """``"mean"`` or ``"none"``: whichever ARX cross-validates better on the training data."""
+    import numpy as np
+
+    from thermogym.errors import IdentificationError
+    from thermogym.identification.pem import pem
+
+    scores = {}
+    for mode in ("mean", "none"):
+        try:
+            r = pem(
+                train,
+                inputs,
+                outputs,
+                "arx",
+                folds=folds,
+                disturbances=dist,
+                operating_point_mode=mode,
+            )
+            scores[mode] = float(r.selection["order_scores"][r.selection["chosen_order"] - 1])
+        except (IdentificationError, ConfigError):
+            scores[mode] = float("-inf")
+    best = "none" if scores["none"] > scores["mean"] + 1e-3 else "mean"
+    if not np.isfinite(scores[best]):
+        best = "mean"
+    return best, scores
+
+
+def main(method: str, argv: list[str]) -> int:
+    """Run ``thermogym identify METHOD ARGS``."""
+    from thermogym._cli.identify_linear import _cols
+
+    if method not in METHODS:
+        raise ConfigError(f"unknown PEM method {method!r}; expected one of {METHODS}")
+    args = build_parser(method).parse_args(hoist_recordings(argv))
+    args.command = "identify"
+    prep = parse_prepare(args.prepare)
+    _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
+    plan = plan_outputs(
+        args, files={"out": "json"}, folders=("plots",), inputs=("data", "validate")
+    )
+    with plan:
+        return _identify(method, args, prep, plan)
+
+
+def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> int:
+    from thermogym._cli.identify_linear import _cols, _plot_fits, _report
+    from thermogym._cli.identify_linear import _signals as signals
+
+    train = load_recordings(args.data, "training", args, prepare=prep)
+    vals = load_recordings(args.validate, "validation", args, prepare=prep)
+    inputs, outputs = signals(args, train[0])
+    dist = _cols(args.disturbances)
+    op = args.operating_point
+    if op == "auto":
+        op, scores = choose_operating_point(train, inputs, outputs, dist, args.folds)
+        print(
+            f"operating point: {op} (ARX cross-validation: mean {100 * scores['mean']:.1f} %, "
+            f"none {100 * scores['none']:.1f} %)"
+        )
+    common: dict[str, Any] = {
+        "disturbances": dist,
+        "operating_point_mode": op,
+        "validate": vals,
+    }
+    if method in ("arx", "armax", "oe", "bj"):
+        from thermogym.identification.pem import pem
+
+        orders = {k: _ints(k, getattr(args, k, None)) for k in ("na", "nb", "nc", "nd", "nf", "nk")}
+        res = pem(
+            train,
+            inputs,
+            outputs,
+            method,
+            max_order=args.max_order,
+            max_delay=args.max_delay,
+            folds=args.folds,
+            focus=args.focus,
+            **{k: v for k, v in orders.items() if v is not None},
+            **common,
+        )
+        o = res.fit.settings["orders"]
+        print(
+            f"{method.upper()} ({res.fit.settings['order_source']}) in {res.seconds:.2f} s: "
+            + ", ".join(f"{k} = {v}" for k, v in o.items())
+        )
+    elif method == "sopdt":
+        from thermogym.identification.pem import sopdt
+
+        res = sopdt(train, inputs, outputs, max_delay_s=args.max_delay_s, **common)
+        print(f"SOPDT in {res.seconds:.2f} s:")
+        for name, v in res.fit.parameters.items():
+            print(f"  {name:<28} {v:12.5g} ± {res.fit.stderr.get(name, float('nan')):.3g}")
+    elif method == "ssest":
+        from thermogym.identification.ssest import ssest
+
+        a, _, b = args.orders.partition(":")
+        try:
+            orders_r = range(int(a), int(b or a) + 1)
+        except ValueError:
+            raise ConfigError(f"--orders {args.orders!r} is not of the form A:B") from None
+        if orders_r.start < 1 or len(orders_r) == 0:
+            raise ConfigError(f"--orders {args.orders!r}: expected 1 <= A <= B")
+        delay = (
+            None if args.input_delay in (None, "auto") else _ints("input-delay", args.input_delay)
+        )
+        if isinstance(delay, list):
+            raise ConfigError("--input-delay: one delay for all inputs")
+        res = ssest(
+            train,
+            inputs,
+            outputs,
+            order=args.order,
+            orders=orders_r,
+            feedthrough={"auto": None, "yes": True, "no": False}[args.feedthrough],
+            input_delay=delay,
+            max_delay=args.max_delay,
+            folds=args.folds,
+            refine_fit=not args.no_refine,
+            focus=args.focus,
+            **common,
+        )
+        st = res.fit.settings
+        print(
+            f"ssest in {res.seconds:.2f} s: order {st['order']}, feedthrough "
+            f"{st['feedthrough']}, input delay {st['input_delay']} samples "
+            f"({st['structure_source']}); refinement: {st.get('status', 'none')}"
+        )
+    else:
+        from thermogym.identification.ssest import identify_auto
+
+        fams = [f.strip() for f in args.families.split(",") if f.strip()]
+        res = identify_auto(
+            train,
+            inputs,
+            outputs,
+            families=fams,
+            folds=args.folds,
+            max_order=args.max_order,
+            max_delay=args.max_delay,
+            **common,
+        )
+        auto = res.fit.settings["auto"]
+        print(
+            f"auto in {res.seconds:.1f} s: chose {auto['chosen']} by {args.folds}-fold "
+            "cross-validation on the training data"
+        )
+        for fam, s in auto["families"].items():
+            if "cv_mnrmse" in s:
+                print(f"  {fam:<6} CV MNRMSE {100 * s['cv_mnrmse']:7.2f} %   {s['structure']}")
+            else:
+                print(f"  {fam:<6} failed: {s['error']}")
+    fit = res.fit
+    if op != args.operating_point:
+        fit.settings["operating_point_choice"] = {"mode": op, "rule": "ARX cross-validation"}
+    _report(fit, args.x0)
+    fit.save(plan.path("--out"))
+    plots = plan.get("--plots")
+    if plots:
+        figures = _plot_fits(fit, train, plots, "train", args.x0)
+        figures += _plot_fits(fit, vals, plots, "validation", args.x0)
+        for f in figures:
+            print(f"  figure: {plan.final(f)}")
+    print(f"wrote {args.out}")
+    return 0
