@@ -393,7 +393,10 @@ _FIT_PRODUCTS = {
 
 
 def _axt211_truth(seed: int) -> dict[str, float]:
-    """The demo's AXT211 specimen: its quantities matching model parameters (the truth)."""
+    """The demo's AXT211 specimen's values of the model parameters that have a physical match.
+
+    The rig's true plant is not the model (:func:`thermogym.studies.axt211.rig_equivalents`).
+    """
     from thermogym.demo.rigs import axt211_specimen
     from thermogym.rigs import get_rig
     from thermogym.studies.axt211 import rig_equivalents

@@ -122,7 +122,7 @@ class RigSensors:
         nc = len(self.streams)
         z = np.zeros((self.n, nc, N_RANDOM))
         for b in np.flatnonzero(active):
-            z[b] = self.draws(rngs[b], nc)
+            z[b] = self.draws(rngs[int(b)], nc)
         out = np.full((self.n, nc), np.nan)
         for j, st in enumerate(self.streams):
             out[:, j] = st.sample(active, truth[:, j], dt, z[:, j])

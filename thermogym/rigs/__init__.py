@@ -1,4 +1,9 @@
-"""Virtual test rigs: experiments like the papers', written as recordings.
+"""Virtual test rigs: plants of their own that run the papers' experiments as recordings.
+
+Each rig has a true plant written apart from the identified models
+(:class:`~thermogym.rigs.base.TruePlant`), richer than them, with a table of
+what it has that the model lacks; sensors (:mod:`thermogym.rigs.sensors`);
+protocols; and concealed effects in its own physics.
 
 >>> from thermogym.rigs import get_rig, rig_names
 >>> rig_names()
@@ -21,16 +26,32 @@ from thermogym._fileio import atomic_write_text
 from thermogym.errors import ConfigError, UnknownNameError
 from thermogym.recording import Recording, write_recording
 from thermogym.rigs.axt211 import AXT211Rig
-from thermogym.rigs.base import EFFECT_NAMES, EffectSpec, Rig, RigRun, parse_effect
+from thermogym.rigs.base import (
+    EFFECT_NAMES,
+    EffectSpec,
+    ExtraPhysics,
+    PhysicalParameter,
+    Rig,
+    RigRun,
+    Specimens,
+    TruePlant,
+    parse_effect,
+)
 from thermogym.rigs.room import RoomRig
+from thermogym.rigs.sensors import Sensor
 from thermogym.rigs.spindle import SpindleRig
 from thermogym.rigs.strut import StrutRig
 
 __all__ = [
     "EFFECT_NAMES",
     "EffectSpec",
+    "ExtraPhysics",
+    "PhysicalParameter",
     "Rig",
     "RigRun",
+    "Sensor",
+    "Specimens",
+    "TruePlant",
     "get_rig",
     "parse_effect",
     "rig_names",

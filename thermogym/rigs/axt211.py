@@ -755,7 +755,7 @@ def _spread(
     periods=(10.0, 120.0, 1200.0),
     dt: float = 1.0,
 ) -> list[RigRun]:
-    specimens = rig.plant().draw_specimens(rng, n, dates=3)
+    specimens = AXT211Plant(off=rig.off).draw_specimens(rng, n, dates=3)
     cmd = _pwm_command(dt, tuple(periods))
     u = np.zeros((n, cmd.size, 3))
     u[:, :, 0] = cmd

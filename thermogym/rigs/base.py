@@ -708,9 +708,9 @@ class Rig:
 
     def measure(
         self,
-        values: Mapping[str, NDArray[np.float64]],
+        values: Mapping[str, ArrayLike],
         rng: np.random.Generator,
-        time: NDArray[np.float64] | None = None,
+        time: ArrayLike | None = None,
     ) -> dict[str, NDArray[np.float64]]:
         """Record noise-free ``values`` through each signal's sensor."""
         return {

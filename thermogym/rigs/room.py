@@ -59,7 +59,7 @@ from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from thermogym.rigs import _axt211_physics as _ax
 from thermogym.rigs import _room_physics as _rp
@@ -282,7 +282,7 @@ class RoomPlant(TruePlant):
         return x
 
     def warm_state(
-        self, specimens: Specimens, T_zone: NDArray[np.float64], T_out: NDArray[np.float64]
+        self, specimens: Specimens, T_zone: ArrayLike, T_out: ArrayLike
     ) -> NDArray[np.float64]:
         """A heated room: air, internal mass and water at ``T_zone``, walls at their gradient."""
         B = specimens.n
