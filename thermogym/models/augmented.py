@@ -813,10 +813,13 @@ class AugmentedModel(Model):
 
     Parameters
     ----------
-    base : str
-        Registered name of the base model.
+    base : str or Model
+        Registered name of the base model, or a model instance (a user's own
+        :class:`~thermogym.models.base.Model`; its FitResult then names the
+        instance's ``name`` and ``config()``, which rebuild it only where that
+        model is registered).
     base_config : dict, optional
-        Constructor arguments of the base model (e.g. its ``effects``).
+        Constructor arguments of a base model given by name (e.g. its ``effects``).
     augmentations : sequence of dict
         ``{"effect": NAME, "signal": COLUMN, ...}`` for each added effect (see
         the module docstring); optional keys: ``sources`` (missing_dynamics),
@@ -848,17 +851,28 @@ class AugmentedModel(Model):
 
     def __init__(
         self,
-        base: str,
+        base: str | Model,
         base_config: Mapping[str, Any] | None = None,
         augmentations: Sequence[Mapping[str, Any]] = (),
     ) -> None:
         from thermogym.models.registry import get_model
 
-        if base == self.name:
-            raise ConfigError("an augmented model cannot wrap another augmented model")
-        self._base_name = str(base)
-        self._base_config = dict(base_config or {})
-        self.base = get_model(self._base_name, **self._base_config)
+        if isinstance(base, Model):
+            if isinstance(base, AugmentedModel):
+                raise ConfigError("an augmented model cannot wrap another augmented model")
+            if base_config:
+                raise ConfigError(
+                    "base_config is given with a model instance; configure the instance itself"
+                )
+            self._base_name = base.name
+            self._base_config = dict(base.config())
+            self.base = base
+        else:
+            if base == self.name:
+                raise ConfigError("an augmented model cannot wrap another augmented model")
+            self._base_name = str(base)
+            self._base_config = dict(base_config or {})
+            self.base = get_model(self._base_name, **self._base_config)
         self.max_step = self.base.max_step
         augmentations = list(augmentations)
         # missing dynamics of an RC network as an extra heat capacity at a node (fastnet)

@@ -479,6 +479,11 @@ def _wrap(ctx: Context, augs: list[dict[str, Any]]) -> tuple[str, dict[str, Any]
         cfg = dict(ctx.model_config)
         cfg["augmentations"] = [*cfg.get("augmentations", []), *augs]
         return "augmented", cfg
+    from thermogym.models.registry import model_names
+
+    if ctx.model_name not in model_names():
+        # a user's own Model instance: wrap the instance (it cannot be rebuilt by name)
+        return "augmented", {"base": ctx.model, "augmentations": augs}
     return "augmented", {
         "base": ctx.model_name,
         "base_config": dict(ctx.model_config),

@@ -75,7 +75,7 @@ from thermogym.models.fastnet import (
     fast_or_none,
     switched_or_none,
 )
-from thermogym.models.registry import get_model
+from thermogym.models.registry import get_model, model_names
 from thermogym.recording import Recording
 
 __all__ = ["diagnose", "resolve_model"]
@@ -1164,8 +1164,9 @@ def _finalise_best(
             if a["effect"] == "transport_delay":
                 d = float(theta[model.param_index(f"delay_{a['signal']}")])
                 a["history"] = math.ceil(d / dtm) + 2
-        model2 = AugmentedModel(**cfg)
-        model = model2
+        if cfg["base"] not in model_names():  # a user's own model: rebuild around the instance
+            cfg = {"base": ctx.model, "augmentations": cfg["augmentations"]}
+        model = AugmentedModel(**cfg)
     fit = _build_fit(
         model,
         theta,
