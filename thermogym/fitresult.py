@@ -419,7 +419,7 @@ class FitResult:
             Further fields (``stderr``, ``bounds``, ``method``, ...). ``bounds``
             defaults to the model's parameter bounds.
         """
-        th = model.theta(parameters)
+        th = model.theta(parameters)  # type: ignore[arg-type]
         if th.shape[0] != 1:
             raise ParameterError(f"expected one parameter set, got {th.shape[0]}")
         kwargs.setdefault("bounds", {p.name: [p.lower, p.upper] for p in model.parameters})

@@ -220,7 +220,7 @@ def run_episode(spec: EpisodeSpec) -> dict[str, Any]:
         "package_version": __version__,
         "controller_settings": json.dumps(settings, sort_keys=True, default=str),
         "controller_fits": ",".join(sorted(set(_fingerprints(settings)))),
-        "env_fit_fingerprint": u.fit.fingerprint() if getattr(u, "fit", None) else "",
+        "env_fit_fingerprint": fit.fingerprint() if (fit := getattr(u, "fit", None)) else "",
         "steps": steps,
         "terminated": bool(terminated),
         "trip": str(info.get("trip", "")),
@@ -231,7 +231,7 @@ def run_episode(spec: EpisodeSpec) -> dict[str, Any]:
     row["wall_s"] = time.perf_counter() - t0
     traj = None
     if spec.record:
-        hist = u.history()
+        hist = u.history()  # type: ignore[attr-defined]
         n = len(hist["time"])
         k = max(1, math.ceil(n / max(int(spec.points), 2)))
         traj = {key: _block_mean(np.asarray(v, dtype=float), k) for key, v in hist.items()}

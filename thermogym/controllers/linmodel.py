@@ -113,7 +113,7 @@ class LinearPlant:
         """State at rest for constant input ``u`` and disturbances ``d`` (absolute units)."""
         dd = np.asarray(d, dtype=float).reshape(-1) - self.d_op
         rhs = self.B[:, 0] * (u - self.u_op) + self.E @ dd
-        return np.linalg.solve(np.eye(self.n_states) - self.A, rhs)
+        return np.asarray(np.linalg.solve(np.eye(self.n_states) - self.A, rhs), dtype=np.float64)
 
     def output(self, x: ArrayLike, u: float, d: ArrayLike) -> NDArray[np.float64]:
         """Outputs for state ``x``, input ``u``, disturbances ``d`` (absolute units)."""

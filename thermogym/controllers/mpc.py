@@ -163,7 +163,7 @@ class SchedulePreview:
         kw = {n: kwargs.get(n, getattr(base, n)) for n in names}
         return cls(int(kwargs["start_day"]), float(kwargs.get("start_hour", 0.0)), **kw, **extra)
 
-    def occupied(self, t: NDArray[np.float64]) -> NDArray[np.bool_]:
+    def occupied(self, t: NDArray[np.floating[Any]]) -> NDArray[np.bool_]:
         """Occupancy at episode times ``t`` [s] (same rule as the environment)."""
         ta = self.t0 + t
         day = np.floor(ta / 86400.0)

@@ -223,6 +223,11 @@ def foptd_of(
         j = _pick(outs, output, "output", "the state-space model")
         i = _pick(exo, input, "input", "the state-space model")
         m = model.matrices(theta)
+        if model.dt is None:
+            raise ConfigError(
+                "the state-space model has no sample period (dt=None); the method of areas "
+                "needs one: build or fit the model with its period"
+            )
         K, T, tau = _area_method(m.A[0], m.B[0][:, i], m.C[0][j], float(m.D[0][j, i]), model.dt)
         return FOPTD(K, T, tau, exo[i], outs[j], "state space, method of areas", fp)
     raise ConfigError(

@@ -123,7 +123,8 @@ def _static_table(freq: str) -> tuple[NDArray[np.float64], NDArray[np.float64], 
     # fully open one, strictly increasing strokes only
     i0 = int(np.flatnonzero(x <= x.min() + 1e-6)[-1])
     i1 = int(np.flatnonzero(x >= x.max() - 1e-6)[0])
-    keep_d, keep_x = [], []
+    keep_d: list[float] = []
+    keep_x: list[float] = []
     for di, xi in zip(duty[i0 : i1 + 1], x[i0 : i1 + 1], strict=True):
         if not keep_x or xi > keep_x[-1] + 1e-6:
             keep_d.append(float(di))

@@ -229,7 +229,8 @@ def evaluate(
             ctrl.reset(seed=int(s))
         wrapped = None if policy == "random" or isinstance(policy, RLController) else policy
         sc = ScaledObservation(env) if wrapped is not None else None
-        total, done, info = 0.0, False, {}
+        total, done = 0.0, False
+        info: dict[str, Any] = {}
         while not done:
             if policy == "random":
                 a = _random_action(env.action_space, rng)
@@ -351,7 +352,7 @@ def train(config: RLConfig) -> TrainResult:
     eval_seeds = list(range(cfg.eval_seed, cfg.eval_seed + cfg.n_eval_episodes))
     trained = evaluate(model, cfg.env_id, cfg.env_kwargs, eval_seeds)
     rand = evaluate("random", cfg.env_id, cfg.env_kwargs, eval_seeds)
-    fit = probe.unwrapped.fit
+    fit = getattr(probe.unwrapped, "fit", None)
     meta = {
         "format": "thermogym-policy",
         "algo": cfg.algo,
@@ -399,7 +400,7 @@ class RLController(Controller):
         self.model = model
         self.meta = dict(meta)
         self.path = path
-        self.kind = "binary" if meta.get("discrete") else "continuous"
+        self.kind = "binary" if meta.get("discrete") else "continuous"  # type: ignore[misc]
         self._low = np.asarray(meta["obs_low"], dtype=np.float64)
         self._high = np.asarray(meta["obs_high"], dtype=np.float64)
         self._finite = np.isfinite(self._low) & np.isfinite(self._high) & (self._high > self._low)

@@ -46,7 +46,7 @@ def stage_diagnose(ctx: DemoContext, res: StageResult) -> None:
     for i, (cap, png) in enumerate(figs.items()):
         tag = names[i] if i < len(names) else f"figure{i + 1}"
         p = ctx.path("figures", f"diagnose_strut_{tag}.png")
-        atomic_write(p, lambda tmp, data=png: tmp.write_bytes(data))
+        atomic_write(p, lambda tmp, data=png: tmp.write_bytes(data))  # type: ignore[misc]
         res.figure(ctx.rel(p), cap)
     b = rep.best
     if rep.augmented_fit is not None:

@@ -325,14 +325,14 @@ def _axt211(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> N
     theta = gb.fit.theta(m)
     case = validation[0]
     sim = m.simulate(case.exogenous_array(m), case.dt, theta)
-    p = plot_recordings(
+    fig = plot_recordings(
         [case],
         ctx.path("figures", "identify_axt211_validation.png"),
         signals=["P_PTC", "T_P", "x_V"],
         overlay={"identified model": {n: sim.output(n)[0] for n in m.output_names}},
         title=f"AXT211 held-out test {case.experiment_id}: rig against the identified model",
     )
-    res.figure(ctx.rel(p), "AXT211 held-out test: the identified grey-box model on new data")
+    res.figure(ctx.rel(fig), "AXT211 held-out test: the identified grey-box model on new data")
 
 
 def stage_identify(ctx: DemoContext, res: StageResult) -> None:

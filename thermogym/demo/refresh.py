@@ -61,7 +61,11 @@ def _valve(ctx: DemoContext, res: StageResult) -> None:
     fit_path = ctx.products["fit_paths"]["axt211_greybox"]
     truth = ctx.products.get("axt211_truth", {})
     hours = 1.0 if ctx.quick else 2.0
-    kw = {"episode_s": hours * 3600.0, "setpoint": "random", "setpoint_hold_s": 1200.0}
+    kw: dict[str, Any] = {
+        "episode_s": hours * 3600.0,
+        "setpoint": "random",
+        "setpoint_hold_s": 1200.0,
+    }
     envs = {
         "nominal model": gym.make("thermogym/AXT211Valve-v0", **kw),
         "refreshed (identified)": ParameterRefresh(
@@ -146,7 +150,12 @@ def _strut(ctx: DemoContext, res: StageResult) -> None:
     from thermogym.demo.plots import strut_prediction_figure
 
     hours = 4.0 if ctx.quick else 8.0
-    kw = {"episode_s": hours * 3600.0, "air_C": 21.0, "air_swing_K": 0.0, "sensor_noise": False}
+    kw: dict[str, Any] = {
+        "episode_s": hours * 3600.0,
+        "air_C": 21.0,
+        "air_swing_K": 0.0,
+        "sensor_noise": False,
+    }
     envs: dict[str, Any] = {
         "nominal model": gym.make("thermogym/StrutThermal-v0", **kw),
         "identified ratios (stage 2)": gym.make(
@@ -196,7 +205,7 @@ def _strut(ctx: DemoContext, res: StageResult) -> None:
         "Strut envs from the FitResults against the rig with the concealed effect",
     )
     res.figure(ctx.rel(p), "Thermal elongation of the strut envs against the rig")
-    best = min(rows, key=lambda r: r[1])
+    best = min(rows, key=lambda r: float(r[1]))  # type: ignore[arg-type]
     res.highlights["strut env from FitResult"] = (
         "elongation RMSE vs rig: "
         + ", ".join(f"{r[0]} {r[1]:.1f} µm" for r in rows)

@@ -52,7 +52,7 @@ class NoiseModel:
 
     Q: NDArray[np.float64]
     R: NDArray[np.float64]
-    S: NDArray[np.float64] = field(default=None)  # type: ignore[assignment]
+    S: NDArray[np.float64] = field(default=None)  # type: ignore[assignment,arg-type]
 
     def __post_init__(self) -> None:
         Q = np.asarray(self.Q, dtype=float)

@@ -17,10 +17,10 @@ def _gramian_factor(W: NDArray[np.float64]) -> NDArray[np.float64]:
     """Lower factor ``F`` with ``F Fᵀ = W`` (Cholesky, eigen-clipping if singular)."""
     W = 0.5 * (W + W.T)
     try:
-        return np.linalg.cholesky(W)
+        return np.asarray(np.linalg.cholesky(W), dtype=np.float64)
     except np.linalg.LinAlgError:
         w, V = np.linalg.eigh(W)
-        return V * np.sqrt(np.clip(w, 0.0, None))
+        return np.asarray(V * np.sqrt(np.clip(w, 0.0, None)), dtype=np.float64)
 
 
 def balanced_truncation(
