@@ -539,3 +539,107 @@ def test_spreadsheet_exports_read_or_named(tmp_path):
     (tmp_path / "t.csv").write_text("time,u,y,\n0,1,2,\n1,1,3,\n")
     with pytest.raises(RecordingError, match="empty name"):
         read_recording(tmp_path / "t.csv")
+
+
+# ---------------------------------------------------------------- second review (issue 17)
+def test_diagnose_names_the_models_as_the_user_wrote_them(tmp_path, capsys):
+    fit = tmp_path / "ss.json"
+    data = "dataset:hair_dryer"
+    assert main(["identify", "n4sid", data, "--order", "2", "--out", str(fit)]) == 0
+    capsys.readouterr()
+    argv = ["diagnose", "--model", "ss:3", "--params", str(fit), "--inputs", "u", "--outputs"]
+    argv += ["y", "--train", data, "--validate", data, "--out", str(tmp_path / "r.json")]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    line = _one_error_line_from_text(captured.err)
+    assert "'ss:3'" in line and "model 'ss'" in line and "--augmented-fit" in line
+    assert "augmented'" not in line  # the internal wrapper is not the user's model
+    assert "model ss:3:" in captured.out and "model augmented" not in captured.out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ss.json"]
+
+
+def _one_error_line_from_text(err: str) -> str:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def test_diagnosis_table_keeps_units_apart_and_drops_dimensionless_ones():
+    from thermogym.identification.diagnosis.report import DiagnosisReport
+
+    rep = DiagnosisReport(
+        "strut", {}, ["T_nut"], ["feed_rate"], {"T_nut": "°C"}, True, 0.01, {}, {}, None, {}
+    )  # type: ignore[arg-type]
+    rep.hypotheses = [
+        {
+            "effect": "input_dependent_heat_transfer",
+            "target": "T_nut",
+            "params": {
+                "beta_u": {"value": 2.0, "unit": "1"},
+                "tau_lag": {"value": 30.0, "unit": "s"},
+                "gain": {"value": 0.5, "unit": ""},
+            },
+        }
+    ]
+    assert rep._hyp_rows()[0][3] == "beta_u = 2, tau_lag = 30 s, gain = 0.5"
+
+
+def test_demo_bars_follow_the_terminal(tmp_path, monkeypatch):
+    import sys
+
+    from thermogym.demo.core import DemoContext
+
+    ctx = DemoContext(tmp_path, progress=True)
+    assert ctx.bars is False  # pytest captures stderr: not a terminal
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    assert ctx.bars is True and DemoContext(tmp_path, progress=False).bars is False
+
+
+def test_demo_only_keeps_an_earlier_failure_in_the_report(tmp_path):
+    from thermogym.demo import Stage, run_demo
+
+    calls: dict[str, int] = {}
+
+    def fails(ctx, res):
+        res.highlights["b"] = "half done"
+        raise RuntimeError("b broke")
+
+    stages = [_stub_stages(calls)[0], Stage("b", "B", fails)]
+    run_demo(tmp_path, stages=stages, progress=False)
+    log = (tmp_path / "logs" / "b.txt").read_text()
+    run_demo(tmp_path, stages=stages, only=["a"], progress=False)
+    md = (tmp_path / "report.md").read_text()
+    assert "**FAILED** B: RuntimeError: b broke" in md
+    assert "| B | failed (earlier run," in md and "Not run this time: it failed" in md
+    assert (tmp_path / "logs" / "b.txt").read_text() == log
+    # an earlier report without the section: the manifest still says it failed
+    doc = json.loads((tmp_path / "report.json").read_text())
+    doc["sections"] = [s for s in doc["sections"] if s["key"] != "b"]
+    (tmp_path / "report.json").write_text(json.dumps(doc))
+    run_demo(tmp_path, stages=stages, only=["a"], progress=False)
+    md = (tmp_path / "report.md").read_text()
+    assert "**FAILED** B: see logs/b.txt" in md
+
+
+def test_python_api_refuses_text_where_numbers_belong(tmp_path):
+    import gymnasium as gym
+
+    import thermogym.envs  # noqa: F401
+    from thermogym.errors import ParameterError, RecordingError, ShapeError
+    from thermogym.models.registry import get_model
+    from thermogym.recording import read_recording
+
+    with pytest.raises(ParameterError, match=r"parameter 'C_P' of model 'axt211' is 'abc'"):
+        gym.make("thermogym/AXT211Valve-v0", params={"C_P": "abc"})
+    with pytest.raises(RecordingError, match=r"the recording path is a int \(5\)"):
+        read_recording(5)  # type: ignore[arg-type]
+    m = get_model("axt211")
+    with pytest.raises(ShapeError, match=r"u cannot be read as numbers"):
+        m.simulate([["a", "b", "c"]], 1.0)
+    with pytest.raises(ShapeError, match=r"dt is '1'"):
+        m.simulate(np.zeros((3, 3)), "1")  # type: ignore[arg-type]
+    with pytest.raises(ShapeError, match=r"dt is True"):
+        m.simulate(np.zeros((3, 3)), True)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match=r"theta cannot be read as numbers"):
+        m.theta([["x"] * len(m.param_names)])
+    assert m.simulate(np.zeros((3, 3)), np.float64(1.0)).outputs.shape[1] == 3  # numbers work

@@ -1357,6 +1357,11 @@ def read_recording(
     UnitError
         ``units`` disagrees with the file's metadata.
     """
+    if not isinstance(path, str | os.PathLike):
+        raise RecordingError(
+            f"the recording path is a {type(path).__name__} ({repr(path)[:60]}); expected a "
+            "file name (str or pathlib.Path)"
+        )
     path = Path(path)
     where = repr(str(path))
     if not path.exists():
@@ -1367,11 +1372,13 @@ def read_recording(
     if path.stat().st_size == 0:
         raise RecordingError(f"recording file {where} is empty (0 bytes)")
     found: list[str] = []
-    if fmt == "csv":
-        delimiter, decimal, found = sniff_csv(path, delimiter=delimiter, decimal=decimal)
     skip = 0
     if fmt == "csv":
-        skip = leading_comments(head_lines(path, 200))
+        try:
+            delimiter, decimal, found = sniff_csv(path, delimiter=delimiter, decimal=decimal)
+            skip = leading_comments(head_lines(path, 200))
+        except OSError as e:  # unreadable (permissions), a bad gzip stream, ...
+            raise RecordingError(f"cannot read recording file {where}: {e}") from e
         if skip:
             found.append(f"skipped {skip} comment line(s) (# ...) before the header")
     try:

@@ -137,6 +137,21 @@ def _sections(
             out.append(old)
         elif r is not None:
             out.append(r)
+        elif entry.get("status") in ("failed", "interrupted"):
+            # not run this time, and it did not finish last time: say so (its log stays)
+            when = entry.get("ran_at") or "an earlier run"
+            if old is None or old.status != entry["status"]:
+                old = StageResult(
+                    stage.key,
+                    stage.title,
+                    status=str(entry["status"]),
+                    error=f"see logs/{stage.key}.txt",
+                    ran_at=str(entry.get("ran_at", "")),
+                )
+            old.carried = True
+            old.seconds = 0.0
+            old.note = f"Not run this time: it {old.status} in the run of {when}."
+            out.append(old)
     return out
 
 
@@ -218,7 +233,7 @@ def run_demo(
                             "sections": [
                                 {**r.to_dict(), "carried": False, "note": ""}
                                 for r in sections
-                                if r.status == "ok"
+                                if r.status in ("ok", "failed")
                             ],
                         },
                         indent=1,

@@ -216,9 +216,18 @@ class DemoContext:
                 + (f" (earlier outputs not reused: {why})" if why else "")
             )
 
+    @property
+    def bars(self) -> bool:
+        """Whether stages draw progress bars: progress on and stderr a terminal.
+
+        Pass this (not :attr:`progress`) to library functions that take
+        ``progress=`` for a bar, so that piped output gets no cursor codes.
+        """
+        return bool(self.progress and getattr(sys.stderr, "isatty", lambda: False)())
+
     def bar(self, items: Iterable[T], desc: str, total: int | None = None) -> Iterator[T]:
         """Iterate with a tqdm bar on stderr when progress is on and stderr is a terminal."""
-        if not self.progress or not getattr(sys.stderr, "isatty", lambda: False)():
+        if not self.bars:
             yield from items  # no cursor codes in pipes and logs
             return
         from tqdm.auto import tqdm

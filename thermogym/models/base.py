@@ -355,7 +355,13 @@ class Model(ABC):
             and len(values) > 0
             and not isinstance(values[0], Mapping)
         ):
-            th = np.array(values, dtype=float)
+            try:
+                th = np.array(values, dtype=float)
+            except (TypeError, ValueError) as e:
+                raise ParameterError(
+                    f"theta cannot be read as numbers ({e}); expected an array ({P},) or "
+                    f"(B, {P}) of the parameters {list(self.param_names)} of model {self.name!r}"
+                ) from None
             given = th.shape
             if th.ndim == 1:
                 th = th[None, :]
@@ -401,7 +407,16 @@ class Model(ABC):
                 f"unknown parameter(s) {unknown} for model {self.name!r}; parameters are "
                 f"{list(self.param_names)}"
             )
-        arrays = {k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in values.items()}
+        arrays = {}
+        for k, v in values.items():
+            try:
+                arrays[k] = np.atleast_1d(np.asarray(v, dtype=float))
+            except (TypeError, ValueError):
+                shown = repr(v.item() if isinstance(v, np.generic) else v)
+                raise ParameterError(
+                    f"parameter {k!r} of model {self.name!r} is {shown[:80]}; expected a "
+                    "finite number (or an array of them, one per parameter set)"
+                ) from None
         sizes = {a.shape[0] for a in arrays.values() if a.shape[0] != 1}
         if base is not None and base.shape[0] != 1:
             sizes.add(base.shape[0])
@@ -431,8 +446,14 @@ class Model(ABC):
 
     # ----------------------------------------------------------------- numerics
     def _exog_batch(self, u: ArrayLike) -> NDArray[np.float64]:
-        ua = np.asarray(u, dtype=float)
         n = len(self.exogenous)
+        try:
+            ua = np.asarray(u, dtype=float)
+        except (TypeError, ValueError) as e:
+            raise ShapeError(
+                f"u cannot be read as numbers ({e}); expected an array (T, {n}) or (B, T, {n}) "
+                f"with columns {list(self.exogenous_names)}"
+            ) from None
         if ua.ndim == 1 and n == 1:
             ua = ua[:, None]
         if ua.ndim == 2:
@@ -506,8 +527,13 @@ class Model(ABC):
         self, u: ArrayLike, dt: float, theta: ThetaLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Checked parameter batch (B, P) and exogenous batch (B, T, n_u) of :meth:`simulate`."""
-        if not (np.isfinite(dt) and dt > 0):
-            raise ShapeError(f"dt is {dt!r}, expected a positive sample period in seconds")
+        try:  # a number (text and booleans are mistakes here)
+            ok = not isinstance(dt, str | bytes | bool | np.bool_) and 0 < float(dt) < math.inf
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            shown = repr(dt.item() if isinstance(dt, np.generic) else dt)
+            raise ShapeError(f"dt is {shown[:80]}, expected a positive sample period in seconds")
         th = self.theta(theta)
         ua = self._exog_batch(u)
         B = max(th.shape[0], ua.shape[0])
