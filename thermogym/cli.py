@@ -76,7 +76,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> argparse.Namespace:
-    args, extra = parser.parse_known_args(argv)
+    items = list(sys.argv[1:] if argv is None else argv)
+    for i, item in enumerate(items):  # no file name or value can hold a NUL character
+        if "\x00" in str(item):
+            after = f" after {items[i - 1]!r}" if i else ""
+            raise UsageError(
+                f"argument {i + 1}{after} holds a NUL character ({one_line(repr(item), 80)}); "
+                "no file name or value can"
+            )
+    args, extra = parser.parse_known_args(items)
     if extra:
         prog = f"thermogym {args.command}" if getattr(args, "command", None) else "thermogym"
         raise UsageError(
@@ -87,6 +95,14 @@ def _parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> argpa
             f"no command given; commands are {', '.join(COMMANDS)} (see thermogym --help)"
         )
     return args
+
+
+def _short_path(name: Any, limit: int = 120) -> str:
+    """A path for a message: quoted, its middle elided when long (the reason stays visible)."""
+    text = repr(os.fsdecode(name) if isinstance(name, bytes) else str(name))
+    if len(text) <= limit:
+        return text
+    return f"{text[: limit // 2]}…{text[-limit // 2 :]} ({len(text) - 2} characters)"
 
 
 def _warn_one_line(message: Any, category: Any, *rest: Any, **kw: Any) -> None:
@@ -127,8 +143,16 @@ def main(argv: Sequence[str] | None = None) -> int:
                 pass
             return 0
         except OSError as e:  # a file the user named: missing, not readable, disk full
-            where = f" {e.filename!r}" if getattr(e, "filename", None) else ""
+            name = getattr(e, "filename", None)
+            where = f" {_short_path(name)}" if name else ""
             print(f"{prog}: error: cannot use{where}: {e.strerror or e}", file=sys.stderr)
+            return 2
+        except RecursionError:  # e.g. a JSON file nested thousands of levels deep
+            print(
+                f"{prog}: error: an input is nested too deeply to read (a JSON or YAML file of "
+                "thousands of levels?); check the files given",
+                file=sys.stderr,
+            )
             return 2
         except Exception as e:
             if os.environ.get("THERMOGYM_TRACEBACK"):

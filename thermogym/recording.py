@@ -52,6 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from thermogym._csvdialect import (
     CSV_DELIMITERS,
     TIME_NAMES,
+    check_encoding,
     csv_parse_hint,
     find_time_column,
     head_lines,
@@ -1254,7 +1255,11 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     if not side.exists():
         return {}
     try:
-        doc = json.loads(side.read_text(encoding="utf-8"))
+        doc = json.loads(side.read_text(encoding="utf-8-sig"))
+    except RecursionError:
+        raise RecordingError(
+            f"sidecar {str(side)!r} is nested too deeply; fix or delete it"
+        ) from None
     except json.JSONDecodeError as e:
         raise RecordingError(
             f"sidecar {str(side)!r} is not valid JSON (line {e.lineno}, column {e.colno}): "
@@ -1375,6 +1380,7 @@ def read_recording(
     skip = 0
     if fmt == "csv":
         try:
+            check_encoding(path, f"recording file {where}")
             delimiter, decimal, found = sniff_csv(path, delimiter=delimiter, decimal=decimal)
             skip = leading_comments(head_lines(path, 200))
         except OSError as e:  # unreadable (permissions), a bad gzip stream, ...

@@ -445,6 +445,8 @@ class OutputPlan:
         p = Path(text)
         if p.is_dir():
             raise ConfigError(f"{option} {text!r} is a folder; expected a file name")
+        if text.endswith(("/", os.sep)):
+            raise ConfigError(f"{option} {text!r} ends in a '/' (a folder); expected a file name")
         suffixes = KIND_SUFFIXES.get(kind)
         if suffixes and not p.name.lower().endswith(suffixes):
             raise ConfigError(

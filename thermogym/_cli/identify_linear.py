@@ -49,13 +49,16 @@ def _cols(text: str | None) -> list[str] | None:
 
 
 def _range(text: str) -> range:
-    a, sep, b = text.partition(":")
+    """``--orders A:B`` (an argparse ``type=``: refused before any work starts)."""
+    a, sep, b = str(text).partition(":")
     try:
         lo, hi = int(a), int(b) if sep else int(a)
     except ValueError:
-        raise ConfigError(f"--orders {text!r} is not of the form A:B (whole numbers)") from None
-    if lo < 1 or hi < lo:
-        raise ConfigError(f"--orders {text!r}: expected 1 <= A <= B")
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not of the form A:B (whole numbers)"
+        ) from None
+    if lo < 1 or hi < lo or hi > 500:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected 1 <= A <= B <= 500 (model orders)")
     return range(lo, hi + 1)
 
 
@@ -129,7 +132,9 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     if method == "n4sid":
         g = p.add_mutually_exclusive_group()
         g.add_argument("--order", type=whole(1, 500, what="a model order"), help="model order")
-        g.add_argument("--orders", default="1:10", help="candidate orders A:B (default 1:10)")
+        g.add_argument(
+            "--orders", type=_range, default="1:10", help="candidate orders A:B (default 1:10)"
+        )
         p.add_argument(
             "--folds",
             type=whole(2, 100, what="a number of folds"),
@@ -415,7 +420,7 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     }
     cv = None
     order = args.order
-    orders = _range(args.orders) if args.order is None else range(args.order, args.order + 1)
+    orders = args.orders if args.order is None else range(args.order, args.order + 1)
     notes: list[Any] = []
     folds = None
     if args.folds is not None or opm == "auto":

@@ -39,6 +39,31 @@ Role = Literal["input", "disturbance", "output"]
 ROLES: tuple[str, ...] = ("input", "disturbance", "output")
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
+#: Most fixed integrator steps one simulation of one parameter set may take (about
+#: three years of 1 s steps): beyond it a time axis is almost surely in the wrong
+#: unit (milliseconds read as seconds, epoch seconds) and the run would not end.
+MAX_INTEGRATOR_STEPS = 10**8
+
+
+def check_step_budget(model: str, n_substeps: int, n_samples: int, dt: float) -> None:
+    """Refuse a simulation of more than :data:`MAX_INTEGRATOR_STEPS` integrator steps.
+
+    Raises
+    ------
+    SimulationError
+        Naming the span, the sample period and the steps it would take.
+    """
+    steps = int(n_substeps) * max(int(n_samples) - 1, 1)
+    if steps > MAX_INTEGRATOR_STEPS:
+        span = dt * max(n_samples - 1, 1)
+        raise SimulationError(
+            f"model {model!r}: {n_samples} samples {dt:g} s apart (a span of {span:g} s) need "
+            f"{steps:.3g} integrator steps ({n_substeps} per sample), more than "
+            f"{MAX_INTEGRATOR_STEPS:.0e}; is the time in seconds? Resample onto a shorter "
+            "period or shorten the recording"
+        )
+
+
 ThetaLike = (
     None | Mapping[str, ArrayLike] | Sequence[Mapping[str, ArrayLike]] | NDArray[np.floating]
 )
@@ -536,6 +561,7 @@ class Model(ABC):
             raise ShapeError(f"dt is {shown[:80]}, expected a positive sample period in seconds")
         th = self.theta(theta)
         ua = self._exog_batch(u)
+        check_step_budget(self.name, self.n_substeps(float(dt)), ua.shape[1], float(dt))
         B = max(th.shape[0], ua.shape[0])
         if th.shape[0] not in (1, B) or ua.shape[0] not in (1, B):
             raise ShapeError(f"theta batch {th.shape[0]} and u batch {ua.shape[0]} differ")
@@ -580,10 +606,19 @@ class Model(ABC):
     ) -> Simulation:
         """Wrap kernel outputs in a :class:`Simulation` (non-finite check when ``strict``)."""
         if strict and not np.isfinite(y).all():
-            b = int(np.argwhere(~np.isfinite(y))[0][0])
+            b, k, j = (int(i) for i in np.argwhere(~np.isfinite(y))[0])
+            ub = ua[min(b, ua.shape[0] - 1)]
+            # the inputs up to that sample, largest magnitude first: often the cause
+            span = np.max(np.abs(ub[: k + 1]), axis=0)
+            inputs = ", ".join(
+                f"{n} up to {float(v):.4g}"
+                for v, n in sorted(zip(span, self.exogenous_names, strict=True), reverse=True)
+            )
+            params = {n: float(v) for n, v in zip(self.param_names, th[b], strict=True)}
             raise SimulationError(
-                f"model {self.name!r}: simulation of parameter set {b} became non-finite; "
-                f"parameters {dict(zip(self.param_names, th[b], strict=True))}"
+                f"model {self.name!r}: simulation of parameter set {b} became non-finite at "
+                f"sample {k} (time {t0 + k * dt:g} s, output {self.output_names[j]!r}); inputs "
+                f"so far: {inputs} (magnitudes); parameters {params}"
             )
         T = ua.shape[1]
         units = {s.name: s.unit for s in self._signals}
