@@ -147,6 +147,13 @@ def main(argv: Sequence[str] | None = None) -> int:
             where = f" {_short_path(name)}" if name else ""
             print(f"{prog}: error: cannot use{where}: {e.strerror or e}", file=sys.stderr)
             return 2
+        except MemoryError:
+            print(
+                f"{prog}: error: out of memory; ask for less at once (smaller --batch-size, "
+                "--samples, --order, shorter or fewer recordings)",
+                file=sys.stderr,
+            )
+            return 2
         except RecursionError:  # e.g. a JSON file nested thousands of levels deep
             print(
                 f"{prog}: error: an input is nested too deeply to read (a JSON or YAML file of "

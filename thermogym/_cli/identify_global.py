@@ -124,7 +124,11 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     m.add_argument("--diff", choices=("forward", "central"), help="greybox: finite differences")
     m.add_argument("--solver", choices=("trf", "dogbox", "lm"), help="greybox: scipy solver")
     m.add_argument(
-        "--samples", type=whole(1, what="a number of parameter sets"), help="montecarlo: sets"
+        "--samples",
+        # a montecarlo run keeps every set it drew (for its intervals): 10^7 sets of a few
+        # parameters are about a gigabyte
+        type=whole(1, 10**7, what="a number of parameter sets"),
+        help="montecarlo: sets (at most 10^7)",
     )
     m.add_argument(
         "--batch-size", type=whole(1, what="a batch size"), help="montecarlo: sets per batch"
