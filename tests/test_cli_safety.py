@@ -643,3 +643,209 @@ def test_python_api_refuses_text_where_numbers_belong(tmp_path):
     with pytest.raises(ParameterError, match=r"theta cannot be read as numbers"):
         m.theta([["x"] * len(m.param_names)])
     assert m.simulate(np.zeros((3, 3)), np.float64(1.0)).outputs.shape[1] == 3  # numbers work
+
+
+class _WorkStarted(BaseException):
+    """Raised by a hooked function: the command started work before refusing an option."""
+
+
+#: One bad option value per command and sub-command, with a word its error names; each must
+#: be refused before any recording is read, rig run, benchmark or demo started.
+_EARLY = [
+    (["simulate", "axt211", "--inputs", "ax.csv", "--out", "s.csv", "--set", "C_P=abc"], "C_P"),
+    (["simulate", "axt211", "--inputs", "ax.csv", "--out", "s.csv", "--set", "C_P=1", "--set",
+      "C_P=2"], "C_P"),
+    (["simulate", "axt211", "--inputs", "ax.csv", "--out", "s.txt"], "--out"),
+    (["simulate", "axt211", "--inputs", "ax.csv", "--out", "s.csv", "--delimiter", "ab"],
+     "--delimiter"),
+    (["experiment", "strut", "steps", "--out", "e", "--option", "feed_rates=abc"], "feed_rates"),
+    (["experiment", "strut", "steps", "--out", "e", "--effect", "gremlins"], "gremlins"),
+    (["identify", "foptd", "hd.csv", "--out", "f.json", "--max-delay-s", "-5"], "--max-delay-s"),
+    (["identify", "foptd", "hd.csv", "--out", "f.json", "--prepare", "dt=abc"], "dt"),
+    (["identify", "n4sid", "hd.csv", "--out", "f.json", "--orders", "5:2"], "--orders"),
+    (["identify", "n4sid", "hd.csv", "--out", "f.json", "--decimate", "x"], "--decimate"),
+    (["identify", "rls", "hd.csv", "--out", "f.json", "--forgetting", "2"], "--forgetting"),
+    (["identify", "arx", "hd.csv", "--out", "f.json", "--na", "abc"], "--na"),
+    (["identify", "armax", "hd.csv", "--out", "f.json", "--nc", "-1"], "--nc"),
+    (["identify", "oe", "hd.csv", "--out", "f.json", "--nf", "x"], "--nf"),
+    (["identify", "bj", "hd.csv", "--out", "f.json", "--nd", "1;x"], "--nd"),
+    (["identify", "sopdt", "hd.csv", "--out", "f.json", "--max-delay-s", "-1"], "--max-delay-s"),
+    (["identify", "ssest", "hd.csv", "--out", "f.json", "--orders", "3:1"], "--orders"),
+    (["identify", "ssest", "hd.csv", "--out", "f.json", "--input-delay", "1,2"], "--input-delay"),
+    (["identify", "auto", "hd.csv", "--out", "f.json", "--families", "arx,zz"], "zz"),
+    (["identify", "montecarlo", "--model", "strut", "strut.csv", "--free", "r_motor=3:1",
+      "--out", "f.json"], "r_motor"),
+    (["identify", "greybox", "--model", "strut", "strut.csv", "--free", "r_motor", "--pair",
+      "T_nut@abc", "--out", "f.json"], "T_nut"),
+    (["identify", "anneal", "--model", "strut", "strut.csv", "--free", "r_motor", "--fix",
+      "r_nut=abc", "--out", "f.json"], "r_nut"),
+    (["identify", "evolution", "--model", "nope", "strut.csv", "--out", "f.json"], "nope"),
+    (["identify", "cmaes", "--model", "strut", "strut.csv", "--free", "r_motor", "--sigma0",
+      "0", "--out", "f.json"], "--sigma0"),
+    (["compare", "fit_ss.json", "--data", "hd.csv", "--k-step", "0"], "--k-step"),
+    (["compare", "fit_ss.json", "--data", "hd.csv", "--labels", "a,b"], "--labels"),
+    (["resid", "fit_ss.json", "--data", "hd.csv", "--alpha", "2"], "--alpha"),
+    (["diagnose", "--model", "nope", "--train", "hd.csv", "--validate", "hd.csv", "--out",
+      "r.json"], "nope"),
+    (["diagnose", "--model", "strut", "--train", "strut.csv", "--validate", "strut.csv",
+      "--out", "r.json", "--candidates", "gremlins"], "gremlins"),
+    (["virtual-sensor", "hd.csv", "--fit", "fit_ss.json", "--out", "v.csv", "--rest", "u=nan"],
+     "u"),
+    (["virtual-sensor", "hd.csv", "--fit", "fit_ss.json", "--out", "v.csv",
+      "--measurement-std", "0"], "--measurement-std"),
+    (["firmware", "budget", "fit_ss.json", "--range", "u=5:1"], "u="),
+    (["firmware", "export", "fit_ss.json", "--out", "fw", "--offset", "u=abc"], "u=abc"),
+    (["bench", "--env", "AXT211Valve", "--out", "b", "--seed-list", "1,x"], "--seed-list"),
+    (["bench", "--env", "AXT211Valve", "--out", "b", "--controllers", "onoff,zz"], "zz"),
+    (["bench", "--env", "Nope", "--out", "b"], "Nope"),
+    (["demo", "--out", "d", "--only", "nope"], "--only"),
+    (["demo", "--out", "d", "--seed", "-1"], "--seed"),
+    (["models", "nope"], "nope"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("argv", "needle"), _EARLY, ids=[" ".join(a[:2]) for a, _ in _EARLY])
+def test_every_command_refuses_a_bad_option_before_any_work(
+    argv, needle, tmp_path, capsys, monkeypatch
+):
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    import cli_badinput as cb
+
+    import thermogym.controllers.harness as harness
+    import thermogym.datasets as datasets
+    import thermogym.demo as demo
+    import thermogym.recording as recording
+    import thermogym.rigs as rigs
+
+    for name, data in cb.build_fixtures().items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_bytes(data)
+    monkeypatch.chdir(tmp_path)
+    before = _digest(tmp_path)
+
+    def work(*a, **kw):
+        raise _WorkStarted
+
+    for owner, attr in [(recording, "read_recording"), (datasets, "load"),
+                        (rigs, "run_experiment"), (harness, "run_benchmark"),
+                        (demo, "run_demo")]:  # fmt: skip
+        monkeypatch.setattr(owner, attr, work)
+    assert main(argv) == 2
+    _one_error_line(capsys, needle)
+    assert _digest(tmp_path) == before
+
+
+# ---------------------------------------------------------------- unlisted bad inputs
+def test_recordings_in_other_encodings_are_named(tmp_path):
+    from thermogym.errors import RecordingError
+    from thermogym.recording import read_recording
+
+    text = "time,u,T_U\n0,1,20\n1,1,21\n2,0,21\n"
+    for enc, named in [("utf-16", "UTF-16 text"), ("utf-16-le", "looks like UTF-16"),
+                       ("utf-32", "UTF-32 text")]:  # fmt: skip
+        p = tmp_path / f"{enc}.csv"
+        p.write_bytes(text.encode(enc))
+        with pytest.raises(RecordingError, match=named):
+            read_recording(p)
+    p = tmp_path / "latin.csv"
+    p.write_bytes(text.replace("T_U", "T_U [°C]").encode("latin-1"))
+    with pytest.raises(RecordingError, match=r"not UTF-8 text: byte 0xb0 on line 1"):
+        read_recording(p)
+    p.write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode())  # BOM and CRLF: fine
+    assert read_recording(p)["T_U"].tolist() == [20.0, 21.0, 21.0]
+
+
+def test_fitresult_with_a_bom_reads_and_a_deep_one_is_named(tmp_path, axt_csv, capsys):
+    from thermogym.fitresult import FitResult
+    from thermogym.models.registry import get_model
+
+    fit = FitResult.from_model(get_model("axt211"), {"C_P": 20.0}, method="by hand")
+    p = tmp_path / "bom.json"
+    p.write_bytes(b"\xef\xbb\xbf" + json.dumps(fit.to_dict()).encode())
+    assert FitResult.load(p).parameters["C_P"] == 20.0
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    argv = ["simulate", "--params", str(deep), "--inputs", str(axt_csv), "--out"]
+    assert main([*argv, str(tmp_path / "s.csv")]) == 2
+    _one_error_line(capsys, "deep.json", "nested too deeply")
+
+
+def test_unusable_output_names_are_refused_first(axt_csv, tmp_path, capsys):
+    argv = ["simulate", "axt211", "--inputs", str(axt_csv), "--out"]
+    for out, needle in [
+        (str(tmp_path / "s\x00.csv"), "NUL character"),
+        (str(tmp_path / ("x" * 300 + ".csv")), "file names take at most"),
+        (str(tmp_path / "/".join(["d"] * 3000)) + "/s.csv", "bytes long (absolute)"),
+        (str(tmp_path / "s.csv") + "/", "ends in a '/'"),
+    ]:
+        assert main([*argv, out]) == 2
+        _one_error_line(capsys, needle)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ax.csv"]
+
+
+def test_long_messages_keep_their_end():
+    from thermogym._cli.common import one_line
+
+    msg = "--out '" + "d/" * 1000 + "x.csv': its folder does not exist; create it first"
+    line = one_line(msg)
+    assert len(line) <= 800 and line.startswith("--out '") and line.endswith("create it first")
+
+
+def test_a_time_axis_in_the_wrong_unit_is_refused_not_run():
+    from thermogym.errors import SimulationError
+    from thermogym.models.registry import get_model
+
+    m = get_model("axt211")  # 1 s integrator steps: 1e9 s would take 1e9 of them
+    with pytest.raises(SimulationError, match=r"1e\+09 integrator steps .* is the time in seconds"):
+        m.simulate(np.array([[1.0, 24.0, 25.0]] * 2), 1e9)
+
+
+def test_rig_options_out_of_its_physics_write_nothing(tmp_path, capsys):
+    from thermogym.errors import SimulationError
+    from thermogym.rigs import run_experiment
+
+    with pytest.raises(SimulationError, match=r"outside what the rig can hold"):
+        run_experiment("strut", "steps", tmp_path / "py", feed_rates=[1e300])
+    argv = ["experiment", "axt211", "steps", "--out", str(tmp_path / "cli"), "--option"]
+    assert main([*argv, "voltages=[1e6]", "--option", "ambients=[25]"]) == 2
+    _one_error_line(capsys, "axt211-step-1e+06V-25C", "T_P", "out of its physics")
+    assert not (tmp_path / "cli").exists() and not (tmp_path / "py").exists()
+
+
+def test_virtual_sensor_at_a_very_long_period_is_exact_and_quick():
+    from thermogym.estimation.virtual_sensor import _lyapunov_sum
+
+    rng = np.random.default_rng(1)
+    A = 0.3 * rng.standard_normal((3, 3))
+    Q = np.cov(rng.standard_normal((3, 10)))
+    for k in (1, 2, 5, 64, 333):
+        direct = sum(
+            np.linalg.matrix_power(A, i) @ Q @ np.linalg.matrix_power(A, i).T for i in range(k)
+        )
+        assert np.allclose(_lyapunov_sum(A, Q, k), direct, rtol=1e-10, atol=1e-12)
+    # 10^10 terms (a period 10^10 times the model's): the geometric series' limit
+    A1 = np.array([[0.5]])
+    assert _lyapunov_sum(A1, np.array([[3.0]]), 10**10)[0, 0] == pytest.approx(3.0 / 0.75)
+
+
+def test_out_of_memory_is_one_line(axt_csv, tmp_path, capsys, monkeypatch):
+    import thermogym.recording as recording
+
+    def no_memory(*a, **kw):
+        raise MemoryError
+
+    monkeypatch.setattr(recording, "read_recording", no_memory)
+    argv = ["simulate", "axt211", "--inputs", str(axt_csv), "--out", str(tmp_path / "s.csv")]
+    assert main(argv) == 2
+    _one_error_line(capsys, "out of memory")
+
+
+def test_resid_says_when_it_used_fewer_lags(tmp_path, capsys):
+    fit = tmp_path / "ss.json"
+    assert main(["identify", "n4sid", "dataset:hair_dryer", "--order", "2", "--out", str(fit)]) == 0
+    capsys.readouterr()
+    assert main(["resid", str(fit), "--data", "dataset:hair_dryer", "--max-lag", "100000"]) == 0
+    out = capsys.readouterr().out
+    assert "lags up to 250 (--max-lag 100000 reduced to a quarter of the samples)" in out

@@ -141,6 +141,15 @@ def run(args: argparse.Namespace) -> int:
     scenarios: list[str] = []
     for s in args.scenario or [DEFAULT_SCENARIO.get(name, "default")]:
         scenarios += [x.strip() for x in s.split(",") if x.strip()]
+    # names the benchmark would refuse only after starting its workers: refused here
+    from thermogym.controllers.presets import expand_controllers
+    from thermogym.controllers.scenarios import get_scenario
+
+    expand_controllers(args.controllers)
+    if not scenarios:
+        raise ConfigError(f"--scenario {','.join(args.scenario or [])!r} names no scenario")
+    for sc in scenarios:
+        get_scenario(sc)
     seeds: Any = args.seeds
     if args.seed_list:
         seeds = list(args.seed_list)

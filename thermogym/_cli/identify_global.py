@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import inspect
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -179,9 +180,12 @@ def build_parser(method: str) -> argparse.ArgumentParser:
 
 def _number(text: str, what: str) -> float:
     try:
-        return float(text)
+        x = float(text)
     except ValueError:
         raise ConfigError(f"{what} is {text!r}, expected a number") from None
+    if not math.isfinite(x):
+        raise ConfigError(f"{what} is {text!r}, expected a finite number")
+    return x
 
 
 def _free_specs(items: list[str], log: list[str]) -> dict[str, Any]:
@@ -200,6 +204,8 @@ def _free_specs(items: list[str], log: list[str]) -> dict[str, Any]:
             kw["upper"] = _number(parts[1], f"upper bound of {name!r}")
             if len(parts) == 3:
                 kw["start"] = _number(parts[2], f"start of {name!r}")
+            if not kw["lower"] < kw["upper"]:
+                raise ConfigError(f"--free {item!r}: expected a lower bound below the upper one")
         out[name] = FreeParameter(name, **kw)
     unknown_log = [n for n in log if n not in out]
     if unknown_log and items:
@@ -246,6 +252,20 @@ def _fixed(items: list[str]) -> dict[str, float]:
         if not eq:
             raise ConfigError(f"--fix {item!r}: expected NAME=VALUE")
         out[name.strip()] = _number(value, f"value of {name.strip()!r}")
+    return out
+
+
+def _noise_specs(items: list[str]) -> dict[str, float | None]:
+    """``--input-noise COLUMN[=SIGMA]``: sigma, or None to estimate it from the data."""
+    out: dict[str, float | None] = {}
+    for item in items:
+        col, eq, sigma = item.partition("=")
+        col = col.strip()
+        if not col:
+            raise ConfigError(f"--input-noise {item!r}: expected COLUMN or COLUMN=SIGMA")
+        out[col] = _number(sigma, f"noise of {col!r}") if eq else None
+        if eq and not out[col] > 0:  # type: ignore[operator]
+            raise ConfigError(f"--input-noise {item!r}: expected a noise sigma > 0")
     return out
 
 
@@ -315,6 +335,11 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     if free is None and args.log:
         raise ConfigError("--log needs the parameters given with --free")
     pairs, ratios, fixed = _pairs(args.pair), _ratios(args.ratio), _fixed(args.fix)
+    given_noise = _noise_specs(args.input_noise)
+    if args.external is None:  # an unknown model or effect: refused before reading data
+        from thermogym.models.registry import get_model
+
+        model = get_model(args.model, **({"effects": list(args.effects)} if args.effects else {}))
     recs = load_recordings(args.data, "training", args, prepare=prep)
     validation = (
         load_recordings(args.validate, "validation", args, prepare=prep) if args.validate else None
@@ -322,9 +347,6 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     if args.external is not None:
         model = _external(args)
     else:
-        from thermogym.models.registry import get_model
-
-        model = get_model(args.model, **({"effects": list(args.effects)} if args.effects else {}))
         for rec in [*recs, *(validation or [])]:  # the model's units, before any work
             rec.validate_for(model, outputs=[n for n in model.output_names if n in rec])
     try:
@@ -338,16 +360,13 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             objective=args.objective,
         )
         noise: dict[str, float] = {}
-        for item in args.input_noise:
-            col, eq, sigma = item.partition("=")
-            if eq:
-                noise[col.strip()] = _number(sigma, f"noise of {col.strip()!r}")
-                if not noise[col.strip()] > 0:
-                    raise ConfigError(f"--input-noise {item!r}: expected a noise sigma > 0")
+        for col, sigma in given_noise.items():
+            if sigma is not None:
+                noise[col] = sigma
             else:
                 from thermogym.identification.uncertainty import estimate_input_noise
 
-                noise.update(estimate_input_noise(recs, [col.strip()]))
+                noise.update(estimate_input_noise(recs, [col]))
         result = run_identification(
             problem,
             method,
