@@ -849,3 +849,22 @@ def test_resid_says_when_it_used_fewer_lags(tmp_path, capsys):
     assert main(["resid", str(fit), "--data", "dataset:hair_dryer", "--max-lag", "100000"]) == 0
     out = capsys.readouterr().out
     assert "lags up to 250 (--max-lag 100000 reduced to a quarter of the samples)" in out
+
+
+def test_demo_interrupted_before_any_stage_finished_changes_no_file(tmp_path, capsys, monkeypatch):
+    import thermogym.demo as demo
+
+    calls: dict[str, int] = {}
+    demo.run_demo(tmp_path, stages=_stub_stages(calls), progress=False)
+    before = _digest(tmp_path)
+    monkeypatch.setattr(demo, "STAGES", _stub_stages(calls, interrupt=True))
+    argv = ["demo", "--out", str(tmp_path), "--only", "b", "--no-progress"]
+    assert main(argv) == 130
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    assert "stage 'b' published nothing; every file in" in line and "as it was" in line
+    assert _digest(tmp_path) == before  # the reports too: nothing they describe changed
+    # a stage that finished first: its files and the reports change, and the line says so
+    assert main(["demo", "--out", str(tmp_path), "--no-progress"]) == 130
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    assert "stage(s) ['a'] finished before it" in line and "were rewritten" in line
+    assert "Interrupted this time" in (tmp_path / "report.md").read_text()

@@ -147,6 +147,24 @@ class StageSkipped(Exception):
     """Raised by a stage whose inputs are missing."""
 
 
+class DemoInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a demo run: what was and was not written (a ``KeyboardInterrupt``).
+
+    Attributes
+    ----------
+    stage : str
+        Key of the interrupted stage (it published nothing).
+    finished : list of str
+        Stages of this run that finished before it (their files were replaced).
+    reports : bool
+        Whether the reports were rewritten (only when a stage finished).
+    """
+
+    def __init__(self, stage: str, finished: list[str], reports: bool) -> None:
+        super().__init__(stage)
+        self.stage, self.finished, self.reports = stage, finished, reports
+
+
 @dataclass
 class DemoContext:
     """Shared state of a demo run.
