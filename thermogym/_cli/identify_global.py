@@ -74,7 +74,7 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     p.add_argument(
         "data", nargs="+", help="recordings: CSV/Parquet files, folders of them, dataset:NAME"
     )
-    p.add_argument("--out", type=Path, required=True, help="FitResult JSON to write")
+    p.add_argument("--out", required=True, help="FitResult JSON to write")
     add_prepare_option(p)
     add_data_options(p)
     p.add_argument("--effects", nargs="*", default=[], help="physical effects of --model")
@@ -171,8 +171,8 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     ext.add_argument("--workers", type=whole(1, what="a number of workers"), help="processes")
     out = p.add_argument_group("output")
     out.add_argument("--validate", nargs="+", default=[], help="validation recordings")
-    out.add_argument("--history", type=Path, help="write the search history (JSON)")
-    out.add_argument("--plot", type=Path, help="write a PNG of measured vs simulated signals")
+    out.add_argument("--history", help="write the search history (JSON)")
+    out.add_argument("--plot", help="write a PNG of measured vs simulated signals")
     out.add_argument("--no-progress", action="store_true", help="no progress bar")
     out.add_argument("--no-overwrite", action="store_true", help="refuse to replace --out")
     return p
