@@ -701,6 +701,23 @@ _EARLY = [
     (["demo", "--out", "d", "--only", "nope"], "--only"),
     (["demo", "--out", "d", "--seed", "-1"], "--seed"),
     (["models", "nope"], "nope"),
+    (["simulate", "nope", "--inputs", "ax.csv", "--out", "s.csv"], "nope"),
+    (["simulate", "ss:x", "--inputs", "ax.csv", "--out", "s.csv"], "ss:x"),
+    (["identify", "rls", "hd.csv", "--out", "f.json", "--delays", "a"], "--delays"),
+    (["identify", "foptd", "hd.csv", "--out", "f.json", "--model", "nope"], "nope"),
+    (["identify", "n4sid", "hd.csv", "--out", "f.json", "--expect-sign", "u=?"], "u=?"),
+    (["identify", "arx", "hd.csv", "--out", "f.json", "--model", "nope"], "nope"),
+    (["identify", "montecarlo", "--model", "strut", "strut.csv", "--effects", "gremlins",
+      "--out", "f.json"], "gremlins"),
+    (["identify", "montecarlo", "--model", "strut", "strut.csv", "--ratio", "r_nut", "--out",
+      "f.json"], "--ratio"),
+    (["identify", "montecarlo", "--model", "strut", "strut.csv", "--free", "r_motor",
+      "--input-noise", "feed_rate=-1", "--out", "f.json"], "feed_rate"),
+    (["identify", "montecarlo", "--external", "missing.toml", "hd.csv", "--out", "f.json"],
+     "missing.toml"),
+    (["firmware", "budget", "fit_ss.json", "--target", "z80"], "z80"),
+    (["bench", "--env", "AXT211Valve", "--out", "b", "--plant", "moon"], "moon"),
+    (["bench", "--env", "AXT211Valve", "--out", "b", "--scenario", "nope"], "nope"),
 ]  # fmt: skip
 
 

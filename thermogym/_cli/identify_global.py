@@ -301,6 +301,9 @@ def main(method: str, argv: list[str]) -> int:
     args = build_parser(method).parse_args(hoist_recordings(argv))
     args.command = "identify"
     prep = parse_prepare(args.prepare)
+    if args.external is not None and not Path(args.external).is_file():
+        what = "is a folder" if Path(args.external).is_dir() else "does not exist"
+        raise ConfigError(f"--external {str(args.external)!r} {what}; expected a TOML/YAML file")
     plan = plan_outputs(
         args,
         files={"out": "json", "history": "json", "plot": "figure"},

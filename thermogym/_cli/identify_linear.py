@@ -247,6 +247,9 @@ def main(method: str, argv: list[str]) -> int:
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
     decimate_option(args)
+    early_model(args)
+    if getattr(args, "delays", None):
+        _delays(args.delays)
     plan = plan_outputs(
         args,
         files={"out": "json"},
@@ -255,6 +258,27 @@ def main(method: str, argv: list[str]) -> int:
     )
     with plan:
         return _identify(method, args, prep, plan)
+
+
+def _delays(text: str) -> list[int]:
+    """``--delays 2`` or ``--delays 2,3`` (one per output): whole numbers of samples >= 0."""
+    try:
+        delays = [int(v) for v in text.split(",")]
+    except ValueError:
+        raise ConfigError(
+            f"--delays {text!r}: expected whole numbers of samples, comma-separated"
+        ) from None
+    if any(v < 0 for v in delays):
+        raise ConfigError(f"--delays {text!r}: expected delays >= 0 samples")
+    return delays
+
+
+def early_model(args: argparse.Namespace) -> None:
+    """Refuse an unknown ``--model`` (whose signal names are used) before reading data."""
+    if getattr(args, "model", None):
+        from thermogym.models.registry import get_model
+
+        get_model(args.model)
 
 
 def decimate_option(args: argparse.Namespace) -> None:
@@ -347,14 +371,7 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
         est = RecursiveFOPTD.from_fit(args.from_fit, forgetting=args.forgetting)
     else:
         if args.delays:
-            try:
-                delays = [int(v) for v in args.delays.split(",")]
-            except ValueError:
-                raise ConfigError(
-                    f"--delays {args.delays!r}: expected whole numbers of samples, comma-separated"
-                ) from None
-            if any(v < 0 for v in delays):
-                raise ConfigError(f"--delays {args.delays!r}: expected delays >= 0 samples")
+            delays = _delays(args.delays)
             n = min(r.n_samples for r in train)
             if max(delays) >= n // 2:
                 raise ConfigError(

@@ -229,7 +229,7 @@ def choose_operating_point(
 
 def main(method: str, argv: list[str]) -> int:
     """Run ``thermogym identify METHOD ARGS``."""
-    from thermogym._cli.identify_linear import _cols
+    from thermogym._cli.identify_linear import _cols, early_model
 
     if method not in METHODS:
         raise ConfigError(f"unknown PEM method {method!r}; expected one of {METHODS}")
@@ -238,6 +238,7 @@ def main(method: str, argv: list[str]) -> int:
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
     _early(method, args)
+    early_model(args)
     plan = plan_outputs(
         args, files={"out": "json"}, folders=("plots",), inputs=("data", "validate")
     )
