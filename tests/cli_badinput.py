@@ -272,6 +272,12 @@ _BASES: dict[str, list[str]] = {
              "arx", "--max-order", "2", "--out", "f.json"],
     "sopdt": ["identify", "sopdt", "hd.csv", "--inputs", "u", "--outputs", "y", "--out",
               "f.json"],
+    "armax": ["identify", "armax", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-order",
+              "2", "--out", "f.json"],
+    "oe": ["identify", "oe", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-order", "2",
+           "--out", "f.json"],
+    "bj": ["identify", "bj", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-order", "2",
+           "--out", "f.json"],
 }  # fmt: skip
 
 #: (base, option, kind, extra): numeric options and their range
@@ -316,6 +322,9 @@ _NUMERIC: list[tuple[str, str, str]] = [
     ("ssest", "--max-delay", "int>=0"),
     ("sopdt", "--max-delay-s", "nonneg"),
     ("auto", "--folds", "int>=2"),
+    ("armax", "--max-order", "int>=1"),
+    ("oe", "--folds", "int>=2"),
+    ("bj", "--max-delay", "int>=0"),
 ]
 
 #: (base, option, bad values, needles): options with a structure of their own
@@ -393,6 +402,12 @@ _STRUCTURED: list[tuple[str, str, list[str], list[str]]] = [
     ("simulate", "--set", ["C_P=20 --set C_P=30"], ["C_P"]),
     ("arx", "--na", ["abc", "-1", "1;x"], ["--na"]),
     ("arx", "--nk", ["x", "-2"], ["--nk"]),
+    ("armax", "--nc", ["x", "-1", "1;"], ["--nc"]),
+    ("oe", "--nf", ["abc", "-3"], ["--nf"]),
+    ("bj", "--nd", ["1;x", "-1"], ["--nd"]),
+    ("bj", "--focus", ["both"], ["--focus"]),
+    ("arx", "--model", ["nope"], ["nope"]),
+    ("rls", "--delays", ["-1,2", "1.5"], ["--delays"]),
     ("ssest", "--orders", ["3:1", "a:b", "1:100000"], ["--orders"]),
     ("ssest", "--input-delay", ["1,2", "x", "-1"], ["--input-delay"]),
     ("auto", "--families", ["zz", "arx,zz", ",", "arx,arx"], ["--families", "zz", ","]),

@@ -885,3 +885,18 @@ def test_demo_interrupted_before_any_stage_finished_changes_no_file(tmp_path, ca
     line = _one_error_line_from_text(capsys.readouterr().err)
     assert "stage(s) ['a'] finished before it" in line and "were rewritten" in line
     assert "Interrupted this time" in (tmp_path / "report.md").read_text()
+
+
+def test_diagnose_a_generic_model_on_a_one_output_recording(tmp_path, capsys):
+    d = np.loadtxt(Path(__file__).parents[1] / "thermogym/datasets/data/daisy_hair_dryer/dryer.dat")
+    rows = "\n".join(f"{0.08 * i:.2f},{u:g},{y:g}" for i, (u, y) in enumerate(d[:300]))
+    hd = tmp_path / "hd.csv"
+    hd.write_text("time,u,y\n" + rows + "\n")
+    argv = ["diagnose", "--model", "ss:3", "--train", str(hd), "--validate", str(hd)]
+    out = tmp_path / "r.json"
+    assert main([*argv, "--out", str(out)]) == 2  # a generic model: name its columns
+    _one_error_line(capsys, "'ss:3' is generic", "--inputs", "--outputs")
+    assert main([*argv, "--inputs", "u", "--outputs", "y", "--out", str(out), "--quiet"]) == 0
+    rep = json.loads(out.read_text())
+    assert rep["outputs"] == ["y"] and rep["model"] == "augmented"  # the ss nominal, wrapped
+    assert "fewer than 8 valid samples" not in capsys.readouterr().err
