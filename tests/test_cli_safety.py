@@ -900,3 +900,26 @@ def test_diagnose_a_generic_model_on_a_one_output_recording(tmp_path, capsys):
     rep = json.loads(out.read_text())
     assert rep["outputs"] == ["y"] and rep["model"] == "augmented"  # the ss nominal, wrapped
     assert "fewer than 8 valid samples" not in capsys.readouterr().err
+
+
+def test_python_api_names_wrong_types_of_recordings_options_and_levels(strut_csv):
+    from thermogym.errors import ConfigError, RecordingError
+    from thermogym.identification.diagnosis import diagnose
+    from thermogym.identification.foptd import fit_foptd
+    from thermogym.identification.n4sid import n4sid
+    from thermogym.recording import read_recording
+    from thermogym.rigs import run_experiment
+
+    with pytest.raises(RecordingError, match=r"the recordings are a str \('hd.csv'\)"):
+        fit_foptd("hd.csv", ["u"], ["y"])
+    with pytest.raises(RecordingError, match=r"a recording is a str \('hd.csv'\)"):
+        n4sid(["hd.csv"], ["u"], ["y"], 2)
+    with pytest.raises(ConfigError, match=r"option feed_rates = 'abc'; expected a list"):
+        run_experiment("strut", "steps", feed_rates="abc")
+    with pytest.raises(ConfigError, match=r"option T_air = \[21\]; expected a finite number"):
+        run_experiment("strut", "steps", T_air=[21])
+    with pytest.raises(ConfigError, match=r"seed is 'x'"):
+        run_experiment("strut", "steps", seed="x")  # type: ignore[arg-type]
+    rec = read_recording(strut_csv)
+    with pytest.raises(ConfigError, match=r"alpha = 2, expected a finite number in \(0, 1\)"):
+        diagnose("strut", [rec], [rec], alpha=2)

@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import probability
 from thermogym.errors import ConfigError, RecordingError, UnknownNameError
 from thermogym.fitresult import FitResult, data_entry, load_fit
 from thermogym.identification.diagnosis.effects import (
@@ -533,6 +534,7 @@ def diagnose(
         )
     if scheme not in ("auto", "split", "crossfit"):
         raise ConfigError(f"scheme is {scheme!r}; expected 'auto', 'split' or 'crossfit'")
+    alpha = probability("alpha", alpha, error=ConfigError)  # a test level in (0, 1)
     if candidates is not None:
         unknown = [c for c in candidates if c not in CATALOGUE or c == "none"]
         if unknown:
