@@ -408,6 +408,8 @@ _STRUCTURED: list[tuple[str, str, list[str], list[str]]] = [
     ("bj", "--focus", ["both"], ["--focus"]),
     ("arx", "--model", ["nope"], ["nope"]),
     ("rls", "--delays", ["-1,2", "1.5"], ["--delays"]),
+    ("foptd", "--prepare", ["dt=1 dt=2"], ["dt"]),
+    ("greybox", "--free", ["r_motor --free r_motor"], ["r_motor"]),
     ("ssest", "--orders", ["3:1", "a:b", "1:100000"], ["--orders"]),
     ("ssest", "--input-delay", ["1,2", "x", "-1"], ["--input-delay"]),
     ("auto", "--families", ["zz", "arx,zz", ",", "arx,arx"], ["--families", "zz", ","]),
@@ -432,9 +434,11 @@ def _with(base: str, option: str, value: str) -> list[str]:
             argv[at[0] + 1] = value
         else:
             argv += [option, value]
-    elif " --set " in value:  # the same option twice
-        first, second = value.split(" --set ")
+    elif " --set " in value or " --free " in value:  # the same option twice
+        first, second = value.split(f" {option} ")
         argv += [option, first, option, second]
+    elif option == "--prepare" and " " in value:  # the same key twice in one list
+        argv += [option, *value.split()]
     elif option in argv and option not in ("--option", "--free"):
         i = argv.index(option)
         argv[i + 1] = value

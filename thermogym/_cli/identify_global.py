@@ -195,6 +195,8 @@ def _free_specs(items: list[str], log: list[str]) -> dict[str, Any]:
     for item in items:
         name, _, rng = item.partition("=")
         name = name.strip()
+        if name in out:
+            raise ConfigError(f"--free {name} is given twice ({item!r}); give each once")
         kw: dict[str, Any] = {"scale": "log" if name in log else "linear"}
         if rng:
             parts = rng.split(":")
