@@ -923,3 +923,28 @@ def test_python_api_names_wrong_types_of_recordings_options_and_levels(strut_csv
     rec = read_recording(strut_csv)
     with pytest.raises(ConfigError, match=r"alpha = 2, expected a finite number in \(0, 1\)"):
         diagnose("strut", [rec], [rec], alpha=2)
+
+
+def test_sigterm_is_an_interruption_too(axt_csv, tmp_path, capsys, monkeypatch):
+    import os
+    import signal
+
+    import thermogym.recording as recording
+
+    out = tmp_path / "sim.csv"
+    out.write_text("time,x\n0,1\n")
+    original = recording.write_recording
+
+    def killed_while_writing(rec, path, **kw):
+        original(rec, path, **kw)  # the staged file is written ...
+        os.kill(os.getpid(), signal.SIGTERM)  # ... then `kill` arrives
+
+    monkeypatch.setattr(recording, "write_recording", killed_while_writing)
+    before = signal.getsignal(signal.SIGTERM)
+    argv = ["simulate", "axt211", "--inputs", str(axt_csv), "--out", str(out)]
+    assert main(argv) == 128 + signal.SIGTERM
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    assert "terminated by SIGTERM; nothing was written over an existing file" in line
+    assert out.read_text() == "time,x\n0,1\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ax.csv", "sim.csv"]
+    assert signal.getsignal(signal.SIGTERM) is before  # the handler is put back

@@ -14,7 +14,9 @@ Exit status and messages (the same for every command):
   ``thermogym COMMAND: error: ...``, naming the offending option, column or
   value; nothing is written;
 * ``130`` interrupted (Ctrl-C): nothing is written over an existing file; a
-  best-so-far result, when kept, goes to a new name that the message gives.
+  best-so-far result, when kept, goes to a new name that the message gives;
+* ``143`` / ``129`` terminated by SIGTERM / SIGHUP (``kill``, ``timeout``, a
+  closed terminal): as for Ctrl-C, nothing is written over an existing file.
 
 The shared machinery (typed options, the output guard, interruption) is in
 :mod:`thermogym._cli.common`.
@@ -25,7 +27,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -105,6 +109,40 @@ def _short_path(name: Any, limit: int = 120) -> str:
     return f"{text[: limit // 2]}…{text[-limit // 2 :]} ({len(text) - 2} characters)"
 
 
+class Terminated(BaseException):
+    """SIGTERM or SIGHUP arrived (``kill``, ``timeout``, a closed terminal).
+
+    A ``BaseException`` like ``KeyboardInterrupt``: library code does not catch
+    it, every staged output is discarded on the way out.
+    """
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _raise_terminated(signum: int, frame: Any) -> None:
+    raise Terminated(signum)
+
+
+def _termination_handlers() -> dict[int, Any]:
+    """Turn SIGTERM/SIGHUP into :class:`Terminated` (main thread only); the old handlers."""
+    old: dict[int, Any] = {}
+    if threading.current_thread() is not threading.main_thread():
+        return old
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is None:
+            continue
+        try:
+            if signal.getsignal(sig) is signal.SIG_IGN:  # nohup: leave it ignored
+                continue
+            old[sig] = signal.signal(sig, _raise_terminated)
+        except (OSError, ValueError):  # pragma: no cover - not allowed here
+            continue
+    return old
+
+
 def _warn_one_line(message: Any, category: Any, *rest: Any, **kw: Any) -> None:
     print(f"thermogym: warning: {one_line(str(message))}", file=sys.stderr)
 
@@ -112,6 +150,7 @@ def _warn_one_line(message: Any, category: Any, *rest: Any, **kw: Any) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status (never raises for bad input)."""
     prog = "thermogym"
+    old_handlers = _termination_handlers()
     with warnings.catch_warnings():
         warnings.showwarning = _warn_one_line
         try:
@@ -136,6 +175,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"{prog}: interrupted; nothing was written over an existing file", file=sys.stderr
             )
             return 130
+        except Terminated as e:
+            name = signal.Signals(e.signum).name
+            print(
+                f"{prog}: terminated by {name}; nothing was written over an existing file",
+                file=sys.stderr,
+            )
+            return 128 + e.signum
         except BrokenPipeError:  # output piped into e.g. `head`
             try:
                 sys.stdout = open(os.devnull, "w")
@@ -171,6 +217,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return 1
+        finally:
+            for sig, handler in old_handlers.items():
+                signal.signal(sig, handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -364,22 +364,30 @@ def _partial_name(target: Path) -> Path:
 
 @contextmanager
 def _interrupts_held() -> Iterator[None]:
-    """Hold off Ctrl-C while files are moved into place (main thread only)."""
+    """Hold off Ctrl-C, SIGTERM and SIGHUP while files are moved into place (main thread)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     got: list[Any] = []
+    held = [getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    old: dict[Any, Any] = {}
     try:
-        old = signal.signal(signal.SIGINT, lambda *a: got.append(a))
+        for sig in held:
+            if signal.getsignal(sig) is not signal.SIG_IGN:
+                old[sig] = signal.signal(sig, lambda *a: got.append(a))
     except (ValueError, OSError):  # pragma: no cover - not allowed here
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, old)
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
     if got:  # the files are in place: say so rather than "nothing was written"
-        raise Interrupted("Ctrl-C came while the outputs were moved into place; they were")
+        name = signal.Signals(got[0][0]).name
+        raise Interrupted(f"{name} came while the outputs were moved into place; they were")
 
 
 class OutputPlan:
