@@ -944,7 +944,60 @@ def test_sigterm_is_an_interruption_too(axt_csv, tmp_path, capsys, monkeypatch):
     argv = ["simulate", "axt211", "--inputs", str(axt_csv), "--out", str(out)]
     assert main(argv) == 128 + signal.SIGTERM
     line = _one_error_line_from_text(capsys.readouterr().err)
-    assert "terminated by SIGTERM; nothing was written over an existing file" in line
+    assert "terminated by SIGTERM: nothing was written over an existing file" in line
     assert out.read_text() == "time,x\n0,1\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ax.csv", "sim.csv"]
     assert signal.getsignal(signal.SIGTERM) is before  # the handler is put back
+
+
+def test_sigterm_in_a_search_keeps_its_best_so_far_and_in_the_demo_the_reports(
+    strut_csv, tmp_path, capsys, monkeypatch
+):
+    import os
+    import signal
+
+    import thermogym.demo as demo
+    from thermogym.identification.optimizers import base
+
+    out = tmp_path / "fit.json"
+    out.write_text('{"an": "earlier fit"}\n')
+    calls = {"n": 0}
+    original = base.Tracker.evaluate
+
+    def killed_on_second_batch(self, *a, **kw):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            os.kill(os.getpid(), signal.SIGTERM)  # `kill PID` while the search runs
+        return original(self, *a, **kw)
+
+    monkeypatch.setattr(base.Tracker, "evaluate", killed_on_second_batch)
+    argv = ["identify", "montecarlo", "--model", "strut", str(strut_csv), "--free", "r_motor"]
+    argv += ["--samples", "200", "--batch-size", "50", "--out", str(out), "--no-progress"]
+    assert main(argv) == 128 + signal.SIGTERM  # the search swallowed it; the status tells
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    partial = tmp_path / "fit.interrupted.json"
+    assert line.startswith("thermogym identify: terminated by SIGTERM: the search was stopped")
+    assert str(partial) in line and "left unchanged" in line
+    assert out.read_text() == '{"an": "earlier fit"}\n' and partial.is_file()
+    # the demo handles SIGTERM like Ctrl-C: the reports match the stages that finished
+    folder = tmp_path / "demo"
+    stages = _stub_stages(calls)
+    demo.run_demo(folder, stages=stages, progress=False)
+    killed = _stub_stages(calls)
+
+    def run_b_killed(ctx, res):
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    killed[1] = demo.Stage("b", "B", run_b_killed)
+    monkeypatch.setattr(demo, "STAGES", killed)
+    b_before = _digest(folder / "b")
+    assert main(["demo", "--out", str(folder), "--no-progress"]) == 128 + signal.SIGTERM
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    assert "terminated by SIGTERM: stage 'b' published nothing" in line
+    assert "were rewritten" in line and _digest(folder / "b") == b_before
+    md = (folder / "report.md").read_text()
+    assert "Interrupted this time" in md and "stage b ran" in md
+    # Ctrl-C still exits 130 after a SIGTERM in an earlier command of this process
+    monkeypatch.setattr(demo, "STAGES", _stub_stages(calls, interrupt=True))
+    assert main(["demo", "--out", str(folder), "--only", "b", "--no-progress"]) == 130
+    assert "interrupted: stage 'b'" in capsys.readouterr().err

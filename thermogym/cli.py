@@ -16,7 +16,8 @@ Exit status and messages (the same for every command):
 * ``130`` interrupted (Ctrl-C): nothing is written over an existing file; a
   best-so-far result, when kept, goes to a new name that the message gives;
 * ``143`` / ``129`` terminated by SIGTERM / SIGHUP (``kill``, ``timeout``, a
-  closed terminal): as for Ctrl-C, nothing is written over an existing file.
+  closed terminal): handled as Ctrl-C (nothing is written over an existing file,
+  a search's best-so-far goes to a new name), the line says which signal.
 
 The shared machinery (typed options, the output guard, interruption) is in
 :mod:`thermogym._cli.common`.
@@ -109,11 +110,12 @@ def _short_path(name: Any, limit: int = 120) -> str:
     return f"{text[: limit // 2]}…{text[-limit // 2 :]} ({len(text) - 2} characters)"
 
 
-class Terminated(BaseException):
+class Terminated(KeyboardInterrupt):
     """SIGTERM or SIGHUP arrived (``kill``, ``timeout``, a closed terminal).
 
-    A ``BaseException`` like ``KeyboardInterrupt``: library code does not catch
-    it, every staged output is discarded on the way out.
+    A ``KeyboardInterrupt``: every path that handles Ctrl-C handles it too
+    (staged outputs discarded, a search's best-so-far kept under a new name,
+    the demo's reports made to match what finished).
     """
 
     def __init__(self, signum: int) -> None:
@@ -121,7 +123,13 @@ class Terminated(BaseException):
         self.signum = signum
 
 
+#: termination signals received during the running command (the search that keeps
+#: its best-so-far swallows the exception; the exit status still tells the signal)
+_RECEIVED: list[int] = []
+
+
 def _raise_terminated(signum: int, frame: Any) -> None:
+    _RECEIVED.append(signum)
     raise Terminated(signum)
 
 
@@ -147,9 +155,21 @@ def _warn_one_line(message: Any, category: Any, *rest: Any, **kw: Any) -> None:
     print(f"thermogym: warning: {one_line(str(message))}", file=sys.stderr)
 
 
+def _interrupted(prog: str, what: str, signum: int | None) -> int:
+    """Print the one line of an interrupted command; its exit status (130, 143, 129)."""
+    if signum is None and _RECEIVED:
+        signum = _RECEIVED[-1]
+    if signum is None or signum == signal.SIGINT:
+        print(f"{prog}: interrupted: {what}", file=sys.stderr)
+        return 130
+    print(f"{prog}: terminated by {signal.Signals(signum).name}: {what}", file=sys.stderr)
+    return 128 + signum
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status (never raises for bad input)."""
     prog = "thermogym"
+    _RECEIVED.clear()
     old_handlers = _termination_handlers()
     with warnings.catch_warnings():
         warnings.showwarning = _warn_one_line
@@ -168,20 +188,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             code = e.code
             return code if isinstance(code, int) else (0 if code is None else 2)
         except Interrupted as e:
-            print(f"{prog}: interrupted: {one_line(str(e))}", file=sys.stderr)
-            return 130
-        except KeyboardInterrupt:
-            print(
-                f"{prog}: interrupted; nothing was written over an existing file", file=sys.stderr
+            return _interrupted(prog, one_line(str(e)), e.signum)
+        except KeyboardInterrupt as e:  # Ctrl-C, or Terminated (SIGTERM, SIGHUP)
+            return _interrupted(
+                prog, "nothing was written over an existing file", getattr(e, "signum", None)
             )
-            return 130
-        except Terminated as e:
-            name = signal.Signals(e.signum).name
-            print(
-                f"{prog}: terminated by {name}; nothing was written over an existing file",
-                file=sys.stderr,
-            )
-            return 128 + e.signum
         except BrokenPipeError:  # output piped into e.g. `head`
             try:
                 sys.stdout = open(os.devnull, "w")

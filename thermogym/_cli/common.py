@@ -84,8 +84,21 @@ class UsageError(ConfigError):
 class Interrupted(Exception):
     """The user interrupted a command; the message says what was (not) written.
 
-    :func:`thermogym.cli.main` prints it on one line and exits with 130.
+    :func:`thermogym.cli.main` prints it on one line and exits with 130 (Ctrl-C),
+    or ``128 + signum`` when a termination signal (SIGTERM, SIGHUP) ended it.
+
+    Parameters
+    ----------
+    message : str
+        What was and was not written.
+    signum : int, optional
+        The signal that interrupted, when known (else the one :mod:`thermogym.cli`
+        recorded, else SIGINT).
     """
+
+    def __init__(self, message: str, signum: int | None = None) -> None:
+        super().__init__(message)
+        self.signum = signum
 
 
 # =============================================================================== parser
@@ -386,8 +399,11 @@ def _interrupts_held() -> Iterator[None]:
         for sig, handler in old.items():
             signal.signal(sig, handler)
     if got:  # the files are in place: say so rather than "nothing was written"
-        name = signal.Signals(got[0][0]).name
-        raise Interrupted(f"{name} came while the outputs were moved into place; they were")
+        signum = got[0][0]
+        name = signal.Signals(signum).name
+        raise Interrupted(
+            f"{name} came while the outputs were moved into place; they were", signum=signum
+        )
 
 
 class OutputPlan:

@@ -411,7 +411,10 @@ def run_stages(
             except StageSkipped as e:
                 res.status, res.error = "skipped", str(e)
             except KeyboardInterrupt:
-                res.status, res.error = "interrupted", "interrupted (Ctrl-C); nothing published"
+                res.status, res.error = (
+                    "interrupted",
+                    "interrupted (Ctrl-C, SIGTERM); nothing published",
+                )
                 res.seconds = time.perf_counter() - t0
                 res.figures, res.files = [], []
                 results.append(res)
