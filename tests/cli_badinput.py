@@ -5,13 +5,15 @@ Shared by the property-based test (``tests/test_cli_fuzz.py``, cases drawn by
 generator). A *case* is one command line over a small work folder of valid
 files with exactly one thing wrong: an option value, an output path, a CSV
 recording, a ``.meta.json`` sidecar, a FitResult, an external-model TOML/YAML
-configuration, or a Ctrl-C at some point of an otherwise valid run.
+configuration, or a Ctrl-C (SIGTERM, SIGHUP) at some point of an otherwise valid
+run.
 
 Every case is known to be wrong, so its run is judged as:
 
 ``clear_error``
-    exit status 2 (130 for an interruption), exactly one non-empty line on
-    stderr that starts ``thermogym`` and says ``error`` (``interrupted``), no
+    exit status 2 (130 for Ctrl-C, 143/129 for SIGTERM/SIGHUP), exactly one
+    non-empty line on stderr that starts ``thermogym`` and says ``error``
+    (``interrupted``, ``terminated by SIGTERM``), no
     traceback, no ``np.float64(...)``, and the line names the offending
     option, value, column, key or file (one of the case's *needles*).
 ``unclear``
@@ -105,6 +107,7 @@ class Case:
     expect: str = "error"  # or "interrupt"
     inject: tuple[str, str] | None = None  # (module, attribute) that raises Ctrl-C
     inject_after: int = 0  # calls let through before the interruption
+    signal_name: str = "SIGINT"  # or SIGTERM, SIGHUP: sent to this process (`kill`)
     note: str = ""
 
     def describe(self) -> str:
@@ -979,11 +982,14 @@ _INTERRUPTS: list[tuple[list[str], str, tuple[str, str], int]] = [
 
 
 def interrupt(p: Picker) -> Case:
-    """Ctrl-C at a point of a valid run whose output exists already."""
+    """Ctrl-C (or SIGTERM, SIGHUP) at a point of a valid run whose output exists already."""
     argv, existing, target, after = p.choice(_INTERRUPTS)
+    sig = p.choice(["SIGINT", "SIGINT", "SIGTERM", "SIGHUP"])
     files: dict[str, bytes | None] = {existing: b"an earlier result\n"}
-    return Case("interrupt", list(argv), ["interrupted"], files, "interrupt", target, after,
-                note=".".join(target))  # fmt: skip
+    needle = "interrupted" if sig == "SIGINT" else f"terminated by {sig}"
+    return Case("interrupt", list(argv), [needle], files, "interrupt", target, after,
+                note=".".join(target) + ("" if sig == "SIGINT" else f" {sig}"),
+                signal_name=sig)  # fmt: skip
 
 
 # =============================================================================== mismatches
@@ -1128,7 +1134,15 @@ def _injected(case: Case) -> Any:
     def interrupted(*a: Any, **kw: Any) -> Any:
         calls["n"] += 1
         if calls["n"] > case.inject_after:
-            raise KeyboardInterrupt
+            if case.signal_name == "SIGINT":
+                raise KeyboardInterrupt
+            signum = getattr(signal, case.signal_name)
+            if callable(signal.getsignal(signum)):  # the CLI's handler raises in this frame
+                os.kill(os.getpid(), signum)
+            else:  # not the main thread: no handler to send it to; what it would raise
+                from thermogym.cli import Terminated
+
+                raise Terminated(signum)
         return original(*a, **kw)
 
     setattr(owner, attr, interrupted)
@@ -1203,11 +1217,15 @@ def _judge(case: Case, code: int | None, err: str, escaped: str) -> str:
         return "traceback"
     if code == 0:
         return "silent_wrong"
-    want = 130 if case.expect == "interrupt" else 2
+    want = 2
+    if case.expect == "interrupt":
+        want = 128 + getattr(signal, case.signal_name)  # 130 for Ctrl-C (SIGINT)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     # warnings the CLI prints on one line each are allowed before the error line
     errors = [ln for ln in lines if not ln.startswith("thermogym: warning:")]
-    word = "interrupted" if case.expect == "interrupt" else "error"
+    word = "error"
+    if case.expect == "interrupt":
+        word = "interrupted" if case.signal_name == "SIGINT" else "terminated by"
     if code != want or len(errors) != 1:
         return "unclear"
     line = errors[0]
