@@ -50,6 +50,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 import cli_badinput as cb  # noqa: E402
 
+from thermogym._fileio import atomic_write_text  # noqa: E402
+
 #: Issue 17's hand survey before this work: tried, clear.
 PEER = (153, 116)
 
@@ -76,11 +78,13 @@ def main() -> int:
     by_family: dict[str, collections.Counter[str]] = {n: collections.Counter() for n in names}
     failures: list[dict[str, object]] = []
     seconds: list[float] = []
+    kinds: set[tuple[str, str]] = set()  # (family, what was wrong): the variety tried
     for k in range(args.cases):
         family = names[int(rng.choice(len(names), p=weights))]
         case = cb.FAMILIES[family][0](picker)
         out = cb.run_case(case, timeout=args.timeout)
         seconds.append(out.seconds)
+        kinds.add((family, case.note or case.argv[0]))
         counts["tried"] += 1
         counts[out.verdict] += 1
         by_family[family]["tried"] += 1
@@ -112,6 +116,7 @@ def main() -> int:
     )
     for k in keys[1:]:
         print(f"  {k:13s} {figures[k]:5d}")
+    print(f"  {len(kinds)} kinds of defect (family and what was wrong)")
     peer = PEER[1] / PEER[0]
     print(
         f"clear errors {100 * share:.1f} % vs {100 * peer:.0f} % in the hand survey of issue 17 "
@@ -130,12 +135,14 @@ def main() -> int:
             "figures": figures,
             "by_family": {n: dict(c) for n, c in by_family.items()},
             "peer": {"name": "issue 17 hand survey (before)", "tried": PEER[0], "clear": PEER[1]},
+            "kinds": len(kinds),
             "seed": args.seed,
             "seconds": total,
             "load": list(load) if load else None,
             "failures": failures[:100],
         }
-        args.json.write_text(json.dumps(doc, indent=2) + "\n")
+        atomic_write_text(args.json, json.dumps(doc, indent=2) + "\n")
+        print(f"wrote {args.json}")
     bad = figures["traceback"] + figures["silent_wrong"] + figures["file_damage"]
     return 0 if bad == 0 else 1
 

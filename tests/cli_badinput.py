@@ -5,13 +5,15 @@ Shared by the property-based test (``tests/test_cli_fuzz.py``, cases drawn by
 generator). A *case* is one command line over a small work folder of valid
 files with exactly one thing wrong: an option value, an output path, a CSV
 recording, a ``.meta.json`` sidecar, a FitResult, an external-model TOML/YAML
-configuration, or a Ctrl-C at some point of an otherwise valid run.
+configuration, or a Ctrl-C (SIGTERM, SIGHUP) at some point of an otherwise valid
+run.
 
 Every case is known to be wrong, so its run is judged as:
 
 ``clear_error``
-    exit status 2 (130 for an interruption), exactly one non-empty line on
-    stderr that starts ``thermogym`` and says ``error`` (``interrupted``), no
+    exit status 2 (130 for Ctrl-C, 143/129 for SIGTERM/SIGHUP), exactly one
+    non-empty line on stderr that starts ``thermogym`` and says ``error``
+    (``interrupted``, ``terminated by SIGTERM``), no
     traceback, no ``np.float64(...)``, and the line names the offending
     option, value, column, key or file (one of the case's *needles*).
 ``unclear``
@@ -105,6 +107,7 @@ class Case:
     expect: str = "error"  # or "interrupt"
     inject: tuple[str, str] | None = None  # (module, attribute) that raises Ctrl-C
     inject_after: int = 0  # calls let through before the interruption
+    signal_name: str = "SIGINT"  # or SIGTERM, SIGHUP: sent to this process (`kill`)
     note: str = ""
 
     def describe(self) -> str:
@@ -262,6 +265,22 @@ _BASES: dict[str, list[str]] = {
     "export": ["firmware", "export", "fit_ss.json", "--out", "fw", "--no-avr-check"],
     "demo": ["demo", "--out", "demo", "--quick", "--no-progress", "--only", "rigs"],
     "models": ["models", "strut"],
+    "compare": ["compare", "fit_ss.json", "fit_foptd.json", "--data", "hd.csv"],
+    "resid": ["resid", "fit_ss.json", "--data", "hd.csv"],
+    "arx": ["identify", "arx", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-order", "3",
+            "--out", "f.json"],
+    "ssest": ["identify", "ssest", "hd.csv", "--inputs", "u", "--outputs", "y", "--order", "2",
+              "--no-refine", "--out", "f.json"],
+    "auto": ["identify", "auto", "hd.csv", "--inputs", "u", "--outputs", "y", "--families",
+             "arx", "--max-order", "2", "--out", "f.json"],
+    "sopdt": ["identify", "sopdt", "hd.csv", "--inputs", "u", "--outputs", "y", "--out",
+              "f.json"],
+    "armax": ["identify", "armax", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-order",
+              "2", "--out", "f.json"],
+    "oe": ["identify", "oe", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-order", "2",
+           "--out", "f.json"],
+    "bj": ["identify", "bj", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-order", "2",
+           "--out", "f.json"],
 }  # fmt: skip
 
 #: (base, option, kind, extra): numeric options and their range
@@ -295,6 +314,20 @@ _NUMERIC: list[tuple[str, str, str]] = [
     ("budget", "--ram-budget", "int>=1"),
     ("budget", "--measurement-std", "pos"),
     ("demo", "--seed", "int>=0"),
+    ("compare", "--k-step", "int>=1"),
+    ("resid", "--k-step", "int>=1"),
+    ("resid", "--max-lag", "int>=1"),
+    ("resid", "--alpha", "prob"),
+    ("arx", "--folds", "int>=2"),
+    ("arx", "--max-order", "int>=1"),
+    ("arx", "--max-delay", "int>=0"),
+    ("ssest", "--order", "int>=1"),
+    ("ssest", "--max-delay", "int>=0"),
+    ("sopdt", "--max-delay-s", "nonneg"),
+    ("auto", "--folds", "int>=2"),
+    ("armax", "--max-order", "int>=1"),
+    ("oe", "--folds", "int>=2"),
+    ("bj", "--max-delay", "int>=0"),
 ]
 
 #: (base, option, bad values, needles): options with a structure of their own
@@ -362,6 +395,32 @@ _STRUCTURED: list[tuple[str, str, list[str], list[str]]] = [
      ["hampel_window", "dt", "valid_range", "nope", "detrend", "outliers", "max_gap_s"]),
     ("montecarlo", "--prepare", ["hampel_sigma=0", "resample_method=cubic", "columns=[]"],
      ["hampel_sigma", "resample_method", "columns"]),
+    # found by the second review of issue 17 (values parsed late, duplicates, huge numbers)
+    ("montecarlo", "--samples", ["1000000000000", "10000001"], ["--samples"]),
+    ("bench", "--seed-list", ["99999999999999999999999", "1,1", "4294967296"], ["--seed-list"]),
+    ("diagnose", "--candidates", ["sensor_lag,sensor_lag"], ["--candidates", "sensor_lag"]),
+    ("diagnose", "--inputs", ["u,u", ",", ""], ["--inputs"]),
+    ("diagnose", "--model", ["augmented", "ss:", "ss:-1", "strut:2"], ["--model"]),
+    ("n4sid", "--orders", ["1:100000", "0:0", "3:1"], ["--orders"]),
+    ("simulate", "--set", ["C_P=20 --set C_P=30"], ["C_P"]),
+    ("arx", "--na", ["abc", "-1", "1;x"], ["--na"]),
+    ("arx", "--nk", ["x", "-2"], ["--nk"]),
+    ("armax", "--nc", ["x", "-1", "1;"], ["--nc"]),
+    ("oe", "--nf", ["abc", "-3"], ["--nf"]),
+    ("bj", "--nd", ["1;x", "-1"], ["--nd"]),
+    ("bj", "--focus", ["both"], ["--focus"]),
+    ("arx", "--model", ["nope"], ["nope"]),
+    ("rls", "--delays", ["-1,2", "1.5"], ["--delays"]),
+    ("foptd", "--prepare", ["dt=1 dt=2"], ["dt"]),
+    ("greybox", "--free", ["r_motor --free r_motor"], ["r_motor"]),
+    ("ssest", "--orders", ["3:1", "a:b", "1:100000"], ["--orders"]),
+    ("ssest", "--input-delay", ["1,2", "x", "-1"], ["--input-delay"]),
+    ("auto", "--families", ["zz", "arx,zz", ",", "arx,arx"], ["--families", "zz", ","]),
+    ("compare", "--labels", ["a,b,c", "a,a", ","], ["--labels"]),
+    ("compare", "--x0", ["guess"], ["--x0"]),
+    ("resid", "--x0", ["guess"], ["--x0"]),
+    ("experiment", "--option", ["feed_rates=[1e300]", "feed_rates=[1e30]"],
+     ["1e+300", "1e+30", "physics"]),
 ]  # fmt: skip
 
 
@@ -371,6 +430,18 @@ def _with(base: str, option: str, value: str) -> list[str]:
         argv[1] = value
     elif option == "RIG":
         argv[1] = value
+    elif option == "--option":  # replaces the base's value of the same key
+        key = value.partition("=")[0] + "="
+        at = [i for i in range(len(argv) - 1) if argv[i] == option and argv[i + 1].startswith(key)]
+        if at:
+            argv[at[0] + 1] = value
+        else:
+            argv += [option, value]
+    elif " --set " in value or " --free " in value:  # the same option twice
+        first, second = value.split(f" {option} ")
+        argv += [option, first, option, second]
+    elif option == "--prepare" and " " in value:  # the same key twice in one list
+        argv += [option, *value.split()]
     elif option in argv and option not in ("--option", "--free"):
         i = argv.index(option)
         argv[i + 1] = value
@@ -450,7 +521,18 @@ def outputs(p: Picker) -> Case:
     if base in _FOLDER_OUT:
         value = p.choice([existing, "strut.csv", "sub/.keep"])
         return Case("outputs", _with(base, opt, value), [opt, value], note="file for folder")
-    kind = p.integer(0, 4)
+    kind = p.integer(0, 7)
+    if kind == 5:  # a name no file system takes: a NUL, hundreds of characters, a trailing /
+        value = p.choice(["f\x00" + _ext(base), "x" * p.integer(256, 400) + _ext(base),
+                          "/".join(["d"] * p.integer(1100, 3000)) + "/x" + _ext(base)])  # fmt: skip
+        return Case("outputs", _with(base, opt, value), [opt, "NUL", "bytes long"],
+                    note="unusable name")  # fmt: skip
+    if kind == 6 and base not in _FOLDER_OUT:
+        value = "x" + _ext(base) + "/"
+        return Case("outputs", _with(base, opt, value), [opt, "'/'"], note="trailing slash")
+    if kind == 7:  # an output below a file
+        value = f"{existing}/x{_ext(base)}"
+        return Case("outputs", _with(base, opt, value), [opt, existing], note="under a file")
     if kind == 0:  # the output is an input (or names it another way)
         src = {"simulate": "ax.csv", "virtual-sensor": "hd.csv", "diagnose": "strut.csv"}
         if base in src:
@@ -539,8 +621,14 @@ def csv_file(p: Picker) -> Case:
     kind = p.choice(
         ["empty", "header", "cell", "drop", "notime", "dup", "order", "timenan", "ragged",
          "binary", "delimiter", "inf", "single", "allnan", "suffix", "missing", "gz", "parquet",
-         "blankname", "utf16"]
+         "blankname", "utf16", "utf16le", "utf32", "latin1", "backwards", "nul", "gzcut",
+         "spaces", "short", "span"]
     )  # fmt: skip
+    if kind == "span" and slot in ("virtual-sensor", "montecarlo", "external"):
+        # two samples decades apart: a filter or a grey-box search has a defined (if
+        # uninformative) answer on them; only fixed-step simulation and the methods with a
+        # least length refuse them
+        kind = "backwards"
     needles = [name]
     data: bytes | None
     if kind == "empty":
@@ -600,8 +688,36 @@ def csv_file(p: Picker) -> Case:
     elif kind == "blankname":
         header[j] = p.choice(["", " ", "T U", "1x"])
         data, needles = _join(header, rows), ["column", col]
-    else:  # utf16: a spreadsheet export in another encoding
-        data, needles = _join(header, rows).decode().encode("utf-16"), [name]
+    elif kind == "utf16":  # a spreadsheet export in another encoding
+        data, needles = _join(header, rows).decode().encode("utf-16"), [name, "UTF-16"]
+    elif kind == "utf16le":  # ... without a byte-order mark
+        data, needles = _join(header, rows).decode().encode("utf-16-le"), [name, "UTF-16"]
+    elif kind == "utf32":
+        data, needles = _join(header, rows).decode().encode("utf-32"), [name, "UTF-32"]
+    elif kind == "latin1":  # a unit in the header, written by an older tool
+        header[j] = header[j] + p.choice([" [°C]", " (µm)", "_é"])
+        data, needles = _join(header, rows).decode().encode("latin-1"), [name, "UTF-8"]
+    elif kind == "backwards":
+        data, needles = _join(header, rows[::-1]), ["increasing", "time"]
+    elif kind == "nul":
+        rows[i][j] = "\x00" * p.integer(1, 3)
+        data, needles = _join(header, rows), [col, name]
+    elif kind == "gzcut":
+        import gzip
+
+        name = "bad.csv.gz"
+        whole = gzip.compress(_join(header, rows))
+        data, needles = whole[: p.integer(11, len(whole) - 9)], [name]
+    elif kind == "spaces":
+        header[j] = f" {header[j]} "
+        data, needles = _join(header, rows), [col, "column"]
+    elif kind == "short":
+        rows[i] = rows[i][:-1]
+        data, needles = _join(header, rows), ["columns", "delimiter", name]
+    else:  # span: two samples decades apart (a time axis in the wrong unit)
+        rows = [rows[0], [*rows[1]]]
+        rows[1][0] = p.choice(["1e9", "3e9", "1.7e9"])
+        data, needles = _join(header, rows), ["time", "samples", "integrator", "resample"]
     if data is not None:
         files[name] = data
     argv = [name if a == "FILE" else a for a in argv]
@@ -691,7 +807,8 @@ def fitresult(p: Picker) -> Case:
     params = doc["parameters"]
     name = p.choice(sorted(params))
     kind = p.choice(["json", "list", "nomodel", "model", "noparams", "value", "nan", "missing",
-                     "extra", "version", "params_list", "format"])  # fmt: skip
+                     "extra", "version", "params_list", "format", "nested", "null", "empty",
+                     "utf16", "folder"])  # fmt: skip
     needles = ["bad.json"]
     if kind == "json":
         raw = json.dumps(doc)
@@ -722,6 +839,20 @@ def fitresult(p: Picker) -> Case:
     elif kind == "version":
         doc["schema_version"] = 999
         text, needles = json.dumps(doc), [*needles, "version"]
+    elif kind == "nested":
+        depth = p.integer(2000, 200000)
+        text, needles = "[" * depth + "]" * depth, [*needles, "nested"]
+    elif kind == "null":
+        text = p.choice(["null", "3", '"a fit"', "true"])
+    elif kind == "empty":
+        text = p.choice(["", " ", "\n"])
+    elif kind == "utf16":
+        argv = ["bad.json" if a == "FIT" else a for a in _FIT_SLOTS[slot]]
+        files = {"bad.json": json.dumps(doc).encode("utf-16")}
+        return Case("fitresult", argv, [*needles, "UTF-8"], files, note=kind)
+    elif kind == "folder":
+        argv = ["sub" if a == "FIT" else a for a in _FIT_SLOTS[slot]]
+        return Case("fitresult", argv, ["sub"], {}, note=kind)
     elif kind == "params_list":
         doc["parameters"] = list(params.values())
         text, needles = json.dumps(doc), [*needles, "parameters"]
@@ -739,7 +870,8 @@ def config(p: Picker) -> Case:
     src = EXT_YAML if yaml_ else EXT_TOML
     kind = p.choice(
         ["syntax", "type", "path", "bounds", "start", "input", "output", "backend", "workers",
-         "unknown", "timeout", "noparams", "function"]
+         "unknown", "timeout", "noparams", "function", "dupkey", "utf16", "pysyntax", "raises",
+         "exits", "imports"]
     )  # fmt: skip
     name = "bad.yaml" if yaml_ else "bad.toml"
     needles = [name]
@@ -785,11 +917,32 @@ def config(p: Picker) -> Case:
         end = src.index("[inputs]" if not yaml_ else "inputs:")
         text = src[:start] + src[end:]
         needles += ["parameters"]
-    else:
+    elif kind == "function":
         text = src.replace('function = "lag"', 'function = "nope"').replace(
             "function: lag", "function: nope"
         )
         needles += ["nope", "function"]
+    elif kind == "dupkey":  # TOML refuses a key given twice; YAML would take the last
+        text = src.replace("timeout = 30", "timeout = 30\ntimeout = 20").replace(
+            "timeout: 30", "timeout: 30\ntimeout: [1, 2]"
+        )
+        needles += ["timeout"]
+    elif kind == "utf16":
+        argv = ["identify", "montecarlo", "--external", name, "hd.csv", "--samples", "10",
+                "--no-progress", "--out", "f.json"]  # fmt: skip
+        return Case("config", argv, needles, {name: src.encode("utf-16")}, note=kind)
+    else:  # the model's own Python file is broken: it must be named, not crash the run
+        body = {
+            "pysyntax": "def lag(:\n",
+            "raises": "def lag(*a, **k):\n    raise RuntimeError('boom in the model')\n",
+            "exits": "import sys\n\ndef lag(*a, **k):\n    sys.exit(3)\n",
+            "imports": "import no_such_module_xyz\n\ndef lag(*a, **k):\n    pass\n",
+        }[kind]
+        files = {name: src.encode(), "lag_func.py": body.encode()}
+        argv = ["identify", "montecarlo", "--external", name, "hd.csv", "--samples", "10",
+                "--no-progress", "--out", "f.json"]  # fmt: skip
+        needles = ["lag_func.py", "boom", "exit", "no_such_module_xyz"]
+        return Case("config", argv, needles, files, note=kind)
     argv = ["identify", "montecarlo", "--external", name, "hd.csv", "--samples", "10",
             "--no-progress", "--out", "f.json"]  # fmt: skip
     return Case("config", argv, needles, {name: text.encode()}, note=kind)
@@ -810,15 +963,33 @@ _INTERRUPTS: list[tuple[list[str], str, tuple[str, str], int]] = [
      "oldexp/strut-step-20.csv", ("thermogym.rigs", "write_recording"), 1),
     (["virtual-sensor", "hd.csv", "--fit", "fit_ss.json", "--out", "old.csv"], "old.csv",
      ("thermogym.recording", "write_recording"), 0),
+    # long commands interrupted mid-work (second review of issue 17)
+    (["identify", "n4sid", "hd.csv", "--inputs", "u", "--outputs", "y", "--order", "2", "--out",
+      "old.json"], "old.json", ("thermogym.identification.n4sid", "n4sid"), 0),
+    (["identify", "arx", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-order", "2",
+      "--out", "old.json"], "old.json", ("thermogym.identification.pem", "pem"), 0),
+    (["diagnose", "--model", "strut", "--train", "strut.csv", "--validate", "strut.csv", "--out",
+      "old.json", "--quiet"], "old.json",
+     ("thermogym.identification.diagnosis.run", "simulate_all"), 1),
+    (["bench", "--env", "AXT211Valve", "--controllers", "onoff,pid", "--seeds", "1", "--out",
+      "oldb", "--no-progress", "--backend", "serial"], "oldb/earlier.txt",
+     ("thermogym.controllers.harness", "run_episode"), 1),
+    (["firmware", "export", "fit_ss.json", "--out", "oldfw", "--no-avr-check", "--overwrite"],
+     "oldfw/earlier.txt", ("thermogym.firmware.export", "_publish_dir"), 0),
+    (["resid", "fit_ss.json", "--data", "hd.csv", "--json", "old.json"], "old.json",
+     ("thermogym.identification.compare", "resid"), 0),
 ]  # fmt: skip
 
 
 def interrupt(p: Picker) -> Case:
-    """Ctrl-C at a point of a valid run whose output exists already."""
+    """Ctrl-C (or SIGTERM, SIGHUP) at a point of a valid run whose output exists already."""
     argv, existing, target, after = p.choice(_INTERRUPTS)
+    sig = p.choice(["SIGINT", "SIGINT", "SIGTERM", "SIGHUP"])
     files: dict[str, bytes | None] = {existing: b"an earlier result\n"}
-    return Case("interrupt", list(argv), ["interrupted"], files, "interrupt", target, after,
-                note=".".join(target))  # fmt: skip
+    needle = "interrupted" if sig == "SIGINT" else f"terminated by {sig}"
+    return Case("interrupt", list(argv), [needle], files, "interrupt", target, after,
+                note=".".join(target) + ("" if sig == "SIGINT" else f" {sig}"),
+                signal_name=sig)  # fmt: skip
 
 
 # =============================================================================== mismatches
@@ -879,6 +1050,15 @@ _MISMATCH: list[tuple[list[str], list[str], dict[str, str]]] = [
       "--out", "f.json"], ["--max-delay-s"], {}),
     (["diagnose", "--model", "strut", "--train", "strut.csv", "--validate", "strut.csv",
       "--out", "r.json", "--dt", "1e9"], ["1000000000", "period", "short"], {}),
+    (["identify", "sopdt", "hd.csv", "--inputs", "u", "--outputs", "y", "--max-delay-s", "1e6",
+      "--out", "f.json"], ["--max-delay-s"], {}),
+    (["resid", "fit_ss.json", "--data", "ax.csv"], ["'y'", "ax"], {}),
+    (["compare", "fit_ss.json", "--data", "strut.csv"], ["'u'", "'y'", "strut"], {}),
+    (["compare", "fit_ss.json", "ax.csv", "--data", "hd.csv"], ["ax.csv"], {}),
+    (["diagnose", "--model", "ss:3", "--params", "fit_ss.json", "--inputs", "u", "--outputs", "y",
+      "--train", "hd.csv", "--validate", "hd.csv", "--out", "r.json"], ["'ss:3'"], {}),
+    (["virtual-sensor", "hd.csv", "--fit", "fit_axt211.json", "--out", "vs.csv"],
+     ["axt211", "ss"], {}),
 ]  # fmt: skip
 
 
@@ -954,7 +1134,15 @@ def _injected(case: Case) -> Any:
     def interrupted(*a: Any, **kw: Any) -> Any:
         calls["n"] += 1
         if calls["n"] > case.inject_after:
-            raise KeyboardInterrupt
+            if case.signal_name == "SIGINT":
+                raise KeyboardInterrupt
+            signum = getattr(signal, case.signal_name)
+            if callable(signal.getsignal(signum)):  # the CLI's handler raises in this frame
+                os.kill(os.getpid(), signum)
+            else:  # not the main thread: no handler to send it to; what it would raise
+                from thermogym.cli import Terminated
+
+                raise Terminated(signum)
         return original(*a, **kw)
 
     setattr(owner, attr, interrupted)
@@ -1029,11 +1217,15 @@ def _judge(case: Case, code: int | None, err: str, escaped: str) -> str:
         return "traceback"
     if code == 0:
         return "silent_wrong"
-    want = 130 if case.expect == "interrupt" else 2
+    want = 2
+    if case.expect == "interrupt":
+        want = 128 + getattr(signal, case.signal_name)  # 130 for Ctrl-C (SIGINT)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     # warnings the CLI prints on one line each are allowed before the error line
     errors = [ln for ln in lines if not ln.startswith("thermogym: warning:")]
-    word = "interrupted" if case.expect == "interrupt" else "error"
+    word = "error"
+    if case.expect == "interrupt":
+        word = "interrupted" if case.signal_name == "SIGINT" else "terminated by"
     if code != want or len(errors) != 1:
         return "unclear"
     line = errors[0]

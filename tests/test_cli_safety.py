@@ -539,3 +539,465 @@ def test_spreadsheet_exports_read_or_named(tmp_path):
     (tmp_path / "t.csv").write_text("time,u,y,\n0,1,2,\n1,1,3,\n")
     with pytest.raises(RecordingError, match="empty name"):
         read_recording(tmp_path / "t.csv")
+
+
+# ---------------------------------------------------------------- second review (issue 17)
+def test_diagnose_names_the_models_as_the_user_wrote_them(tmp_path, capsys):
+    fit = tmp_path / "ss.json"
+    data = "dataset:hair_dryer"
+    assert main(["identify", "n4sid", data, "--order", "2", "--out", str(fit)]) == 0
+    capsys.readouterr()
+    argv = ["diagnose", "--model", "ss:3", "--params", str(fit), "--inputs", "u", "--outputs"]
+    argv += ["y", "--train", data, "--validate", data, "--out", str(tmp_path / "r.json")]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    line = _one_error_line_from_text(captured.err)
+    assert "'ss:3'" in line and "model 'ss'" in line and "--augmented-fit" in line
+    assert "augmented'" not in line  # the internal wrapper is not the user's model
+    assert "model ss:3:" in captured.out and "model augmented" not in captured.out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ss.json"]
+
+
+def _one_error_line_from_text(err: str) -> str:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def test_diagnosis_table_keeps_units_apart_and_drops_dimensionless_ones():
+    from thermogym.identification.diagnosis.report import DiagnosisReport
+
+    rep = DiagnosisReport(
+        "strut", {}, ["T_nut"], ["feed_rate"], {"T_nut": "°C"}, True, 0.01, {}, {}, None, {}
+    )  # type: ignore[arg-type]
+    rep.hypotheses = [
+        {
+            "effect": "input_dependent_heat_transfer",
+            "target": "T_nut",
+            "params": {
+                "beta_u": {"value": 2.0, "unit": "1"},
+                "tau_lag": {"value": 30.0, "unit": "s"},
+                "gain": {"value": 0.5, "unit": ""},
+            },
+        }
+    ]
+    assert rep._hyp_rows()[0][3] == "beta_u = 2, tau_lag = 30 s, gain = 0.5"
+
+
+def test_demo_bars_follow_the_terminal(tmp_path, monkeypatch):
+    import sys
+
+    from thermogym.demo.core import DemoContext
+
+    ctx = DemoContext(tmp_path, progress=True)
+    assert ctx.bars is False  # pytest captures stderr: not a terminal
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    assert ctx.bars is True and DemoContext(tmp_path, progress=False).bars is False
+
+
+def test_demo_only_keeps_an_earlier_failure_in_the_report(tmp_path):
+    from thermogym.demo import Stage, run_demo
+
+    calls: dict[str, int] = {}
+
+    def fails(ctx, res):
+        res.highlights["b"] = "half done"
+        raise RuntimeError("b broke")
+
+    stages = [_stub_stages(calls)[0], Stage("b", "B", fails)]
+    run_demo(tmp_path, stages=stages, progress=False)
+    log = (tmp_path / "logs" / "b.txt").read_text()
+    run_demo(tmp_path, stages=stages, only=["a"], progress=False)
+    md = (tmp_path / "report.md").read_text()
+    assert "**FAILED** B: RuntimeError: b broke" in md
+    assert "| B | failed (earlier run," in md and "Not run this time: it failed" in md
+    assert (tmp_path / "logs" / "b.txt").read_text() == log
+    # an earlier report without the section: the manifest still says it failed
+    doc = json.loads((tmp_path / "report.json").read_text())
+    doc["sections"] = [s for s in doc["sections"] if s["key"] != "b"]
+    (tmp_path / "report.json").write_text(json.dumps(doc))
+    run_demo(tmp_path, stages=stages, only=["a"], progress=False)
+    md = (tmp_path / "report.md").read_text()
+    assert "**FAILED** B: see logs/b.txt" in md
+
+
+def test_python_api_refuses_text_where_numbers_belong(tmp_path):
+    import gymnasium as gym
+
+    import thermogym.envs  # noqa: F401
+    from thermogym.errors import ParameterError, RecordingError, ShapeError
+    from thermogym.models.registry import get_model
+    from thermogym.recording import read_recording
+
+    with pytest.raises(ParameterError, match=r"parameter 'C_P' of model 'axt211' is 'abc'"):
+        gym.make("thermogym/AXT211Valve-v0", params={"C_P": "abc"})
+    with pytest.raises(RecordingError, match=r"the recording path is a int \(5\)"):
+        read_recording(5)  # type: ignore[arg-type]
+    m = get_model("axt211")
+    with pytest.raises(ShapeError, match=r"u cannot be read as numbers"):
+        m.simulate([["a", "b", "c"]], 1.0)
+    with pytest.raises(ShapeError, match=r"dt is '1'"):
+        m.simulate(np.zeros((3, 3)), "1")  # type: ignore[arg-type]
+    with pytest.raises(ShapeError, match=r"dt is True"):
+        m.simulate(np.zeros((3, 3)), True)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match=r"theta cannot be read as numbers"):
+        m.theta([["x"] * len(m.param_names)])
+    assert m.simulate(np.zeros((3, 3)), np.float64(1.0)).outputs.shape[1] == 3  # numbers work
+
+
+class _WorkStarted(BaseException):
+    """Raised by a hooked function: the command started work before refusing an option."""
+
+
+#: One bad option value per command and sub-command, with a word its error names; each must
+#: be refused before any recording is read, rig run, benchmark or demo started.
+_EARLY = [
+    (["simulate", "axt211", "--inputs", "ax.csv", "--out", "s.csv", "--set", "C_P=abc"], "C_P"),
+    (["simulate", "axt211", "--inputs", "ax.csv", "--out", "s.csv", "--set", "C_P=1", "--set",
+      "C_P=2"], "C_P"),
+    (["simulate", "axt211", "--inputs", "ax.csv", "--out", "s.txt"], "--out"),
+    (["simulate", "axt211", "--inputs", "ax.csv", "--out", "s.csv", "--delimiter", "ab"],
+     "--delimiter"),
+    (["experiment", "strut", "steps", "--out", "e", "--option", "feed_rates=abc"], "feed_rates"),
+    (["experiment", "strut", "steps", "--out", "e", "--effect", "gremlins"], "gremlins"),
+    (["identify", "foptd", "hd.csv", "--out", "f.json", "--max-delay-s", "-5"], "--max-delay-s"),
+    (["identify", "foptd", "hd.csv", "--out", "f.json", "--prepare", "dt=abc"], "dt"),
+    (["identify", "n4sid", "hd.csv", "--out", "f.json", "--orders", "5:2"], "--orders"),
+    (["identify", "n4sid", "hd.csv", "--out", "f.json", "--decimate", "x"], "--decimate"),
+    (["identify", "rls", "hd.csv", "--out", "f.json", "--forgetting", "2"], "--forgetting"),
+    (["identify", "arx", "hd.csv", "--out", "f.json", "--na", "abc"], "--na"),
+    (["identify", "armax", "hd.csv", "--out", "f.json", "--nc", "-1"], "--nc"),
+    (["identify", "oe", "hd.csv", "--out", "f.json", "--nf", "x"], "--nf"),
+    (["identify", "bj", "hd.csv", "--out", "f.json", "--nd", "1;x"], "--nd"),
+    (["identify", "sopdt", "hd.csv", "--out", "f.json", "--max-delay-s", "-1"], "--max-delay-s"),
+    (["identify", "ssest", "hd.csv", "--out", "f.json", "--orders", "3:1"], "--orders"),
+    (["identify", "ssest", "hd.csv", "--out", "f.json", "--input-delay", "1,2"], "--input-delay"),
+    (["identify", "auto", "hd.csv", "--out", "f.json", "--families", "arx,zz"], "zz"),
+    (["identify", "montecarlo", "--model", "strut", "strut.csv", "--free", "r_motor=3:1",
+      "--out", "f.json"], "r_motor"),
+    (["identify", "greybox", "--model", "strut", "strut.csv", "--free", "r_motor", "--pair",
+      "T_nut@abc", "--out", "f.json"], "T_nut"),
+    (["identify", "anneal", "--model", "strut", "strut.csv", "--free", "r_motor", "--fix",
+      "r_nut=abc", "--out", "f.json"], "r_nut"),
+    (["identify", "evolution", "--model", "nope", "strut.csv", "--out", "f.json"], "nope"),
+    (["identify", "cmaes", "--model", "strut", "strut.csv", "--free", "r_motor", "--sigma0",
+      "0", "--out", "f.json"], "--sigma0"),
+    (["compare", "fit_ss.json", "--data", "hd.csv", "--k-step", "0"], "--k-step"),
+    (["compare", "fit_ss.json", "--data", "hd.csv", "--labels", "a,b"], "--labels"),
+    (["resid", "fit_ss.json", "--data", "hd.csv", "--alpha", "2"], "--alpha"),
+    (["diagnose", "--model", "nope", "--train", "hd.csv", "--validate", "hd.csv", "--out",
+      "r.json"], "nope"),
+    (["diagnose", "--model", "strut", "--train", "strut.csv", "--validate", "strut.csv",
+      "--out", "r.json", "--candidates", "gremlins"], "gremlins"),
+    (["virtual-sensor", "hd.csv", "--fit", "fit_ss.json", "--out", "v.csv", "--rest", "u=nan"],
+     "u"),
+    (["virtual-sensor", "hd.csv", "--fit", "fit_ss.json", "--out", "v.csv",
+      "--measurement-std", "0"], "--measurement-std"),
+    (["firmware", "budget", "fit_ss.json", "--range", "u=5:1"], "u="),
+    (["firmware", "export", "fit_ss.json", "--out", "fw", "--offset", "u=abc"], "u=abc"),
+    (["bench", "--env", "AXT211Valve", "--out", "b", "--seed-list", "1,x"], "--seed-list"),
+    (["bench", "--env", "AXT211Valve", "--out", "b", "--controllers", "onoff,zz"], "zz"),
+    (["bench", "--env", "Nope", "--out", "b"], "Nope"),
+    (["demo", "--out", "d", "--only", "nope"], "--only"),
+    (["demo", "--out", "d", "--seed", "-1"], "--seed"),
+    (["models", "nope"], "nope"),
+    (["simulate", "nope", "--inputs", "ax.csv", "--out", "s.csv"], "nope"),
+    (["simulate", "ss:x", "--inputs", "ax.csv", "--out", "s.csv"], "ss:x"),
+    (["identify", "rls", "hd.csv", "--out", "f.json", "--delays", "a"], "--delays"),
+    (["identify", "foptd", "hd.csv", "--out", "f.json", "--model", "nope"], "nope"),
+    (["identify", "n4sid", "hd.csv", "--out", "f.json", "--expect-sign", "u=?"], "u=?"),
+    (["identify", "arx", "hd.csv", "--out", "f.json", "--model", "nope"], "nope"),
+    (["identify", "montecarlo", "--model", "strut", "strut.csv", "--effects", "gremlins",
+      "--out", "f.json"], "gremlins"),
+    (["identify", "montecarlo", "--model", "strut", "strut.csv", "--ratio", "r_nut", "--out",
+      "f.json"], "--ratio"),
+    (["identify", "montecarlo", "--model", "strut", "strut.csv", "--free", "r_motor",
+      "--input-noise", "feed_rate=-1", "--out", "f.json"], "feed_rate"),
+    (["identify", "montecarlo", "--external", "missing.toml", "hd.csv", "--out", "f.json"],
+     "missing.toml"),
+    (["firmware", "budget", "fit_ss.json", "--target", "z80"], "z80"),
+    (["bench", "--env", "AXT211Valve", "--out", "b", "--plant", "moon"], "moon"),
+    (["bench", "--env", "AXT211Valve", "--out", "b", "--scenario", "nope"], "nope"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("argv", "needle"), _EARLY, ids=[" ".join(a[:2]) for a, _ in _EARLY])
+def test_every_command_refuses_a_bad_option_before_any_work(
+    argv, needle, tmp_path, capsys, monkeypatch
+):
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    import cli_badinput as cb
+
+    import thermogym.controllers.harness as harness
+    import thermogym.datasets as datasets
+    import thermogym.demo as demo
+    import thermogym.recording as recording
+    import thermogym.rigs as rigs
+
+    for name, data in cb.build_fixtures().items():
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_bytes(data)
+    monkeypatch.chdir(tmp_path)
+    before = _digest(tmp_path)
+
+    def work(*a, **kw):
+        raise _WorkStarted
+
+    for owner, attr in [(recording, "read_recording"), (datasets, "load"),
+                        (rigs, "run_experiment"), (harness, "run_benchmark"),
+                        (demo, "run_demo")]:  # fmt: skip
+        monkeypatch.setattr(owner, attr, work)
+    assert main(argv) == 2
+    _one_error_line(capsys, needle)
+    assert _digest(tmp_path) == before
+
+
+# ---------------------------------------------------------------- unlisted bad inputs
+def test_recordings_in_other_encodings_are_named(tmp_path):
+    from thermogym.errors import RecordingError
+    from thermogym.recording import read_recording
+
+    text = "time,u,T_U\n0,1,20\n1,1,21\n2,0,21\n"
+    for enc, named in [("utf-16", "UTF-16 text"), ("utf-16-le", "looks like UTF-16"),
+                       ("utf-32", "UTF-32 text")]:  # fmt: skip
+        p = tmp_path / f"{enc}.csv"
+        p.write_bytes(text.encode(enc))
+        with pytest.raises(RecordingError, match=named):
+            read_recording(p)
+    p = tmp_path / "latin.csv"
+    p.write_bytes(text.replace("T_U", "T_U [°C]").encode("latin-1"))
+    with pytest.raises(RecordingError, match=r"not UTF-8 text: byte 0xb0 on line 1"):
+        read_recording(p)
+    p.write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode())  # BOM and CRLF: fine
+    assert read_recording(p)["T_U"].tolist() == [20.0, 21.0, 21.0]
+
+
+def test_fitresult_with_a_bom_reads_and_a_deep_one_is_named(tmp_path, axt_csv, capsys):
+    from thermogym.fitresult import FitResult
+    from thermogym.models.registry import get_model
+
+    fit = FitResult.from_model(get_model("axt211"), {"C_P": 20.0}, method="by hand")
+    p = tmp_path / "bom.json"
+    p.write_bytes(b"\xef\xbb\xbf" + json.dumps(fit.to_dict()).encode())
+    assert FitResult.load(p).parameters["C_P"] == 20.0
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    argv = ["simulate", "--params", str(deep), "--inputs", str(axt_csv), "--out"]
+    assert main([*argv, str(tmp_path / "s.csv")]) == 2
+    _one_error_line(capsys, "deep.json", "nested too deeply")
+
+
+def test_unusable_output_names_are_refused_first(axt_csv, tmp_path, capsys):
+    argv = ["simulate", "axt211", "--inputs", str(axt_csv), "--out"]
+    for out, needle in [
+        (str(tmp_path / "s\x00.csv"), "NUL character"),
+        (str(tmp_path / ("x" * 300 + ".csv")), "file names take at most"),
+        (str(tmp_path / "/".join(["d"] * 3000)) + "/s.csv", "bytes long (absolute)"),
+        (str(tmp_path / "s.csv") + "/", "ends in a '/'"),
+    ]:
+        assert main([*argv, out]) == 2
+        _one_error_line(capsys, needle)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ax.csv"]
+
+
+def test_long_messages_keep_their_end():
+    from thermogym._cli.common import one_line
+
+    msg = "--out '" + "d/" * 1000 + "x.csv': its folder does not exist; create it first"
+    line = one_line(msg)
+    assert len(line) <= 800 and line.startswith("--out '") and line.endswith("create it first")
+
+
+def test_a_time_axis_in_the_wrong_unit_is_refused_not_run():
+    from thermogym.errors import SimulationError
+    from thermogym.models.registry import get_model
+
+    m = get_model("axt211")  # 1 s integrator steps: 1e9 s would take 1e9 of them
+    with pytest.raises(SimulationError, match=r"1e\+09 integrator steps .* is the time in seconds"):
+        m.simulate(np.array([[1.0, 24.0, 25.0]] * 2), 1e9)
+
+
+def test_rig_options_out_of_its_physics_write_nothing(tmp_path, capsys):
+    from thermogym.errors import SimulationError
+    from thermogym.rigs import run_experiment
+
+    with pytest.raises(SimulationError, match=r"outside what the rig can hold"):
+        run_experiment("strut", "steps", tmp_path / "py", feed_rates=[1e300])
+    argv = ["experiment", "axt211", "steps", "--out", str(tmp_path / "cli"), "--option"]
+    assert main([*argv, "voltages=[1e6]", "--option", "ambients=[25]"]) == 2
+    _one_error_line(capsys, "axt211-step-1e+06V-25C", "T_P", "out of its physics")
+    assert not (tmp_path / "cli").exists() and not (tmp_path / "py").exists()
+
+
+def test_virtual_sensor_at_a_very_long_period_is_exact_and_quick():
+    from thermogym.estimation.virtual_sensor import _lyapunov_sum
+
+    rng = np.random.default_rng(1)
+    A = 0.3 * rng.standard_normal((3, 3))
+    Q = np.cov(rng.standard_normal((3, 10)))
+    for k in (1, 2, 5, 64, 333):
+        direct = sum(
+            np.linalg.matrix_power(A, i) @ Q @ np.linalg.matrix_power(A, i).T for i in range(k)
+        )
+        assert np.allclose(_lyapunov_sum(A, Q, k), direct, rtol=1e-10, atol=1e-12)
+    # 10^10 terms (a period 10^10 times the model's): the geometric series' limit
+    A1 = np.array([[0.5]])
+    assert _lyapunov_sum(A1, np.array([[3.0]]), 10**10)[0, 0] == pytest.approx(3.0 / 0.75)
+
+
+def test_out_of_memory_is_one_line(axt_csv, tmp_path, capsys, monkeypatch):
+    import thermogym.recording as recording
+
+    def no_memory(*a, **kw):
+        raise MemoryError
+
+    monkeypatch.setattr(recording, "read_recording", no_memory)
+    argv = ["simulate", "axt211", "--inputs", str(axt_csv), "--out", str(tmp_path / "s.csv")]
+    assert main(argv) == 2
+    _one_error_line(capsys, "out of memory")
+
+
+def test_resid_says_when_it_used_fewer_lags(tmp_path, capsys):
+    fit = tmp_path / "ss.json"
+    assert main(["identify", "n4sid", "dataset:hair_dryer", "--order", "2", "--out", str(fit)]) == 0
+    capsys.readouterr()
+    assert main(["resid", str(fit), "--data", "dataset:hair_dryer", "--max-lag", "100000"]) == 0
+    out = capsys.readouterr().out
+    assert "lags up to 250 (--max-lag 100000 reduced to a quarter of the samples)" in out
+
+
+def test_demo_interrupted_before_any_stage_finished_changes_no_file(tmp_path, capsys, monkeypatch):
+    import thermogym.demo as demo
+
+    calls: dict[str, int] = {}
+    demo.run_demo(tmp_path, stages=_stub_stages(calls), progress=False)
+    before = _digest(tmp_path)
+    monkeypatch.setattr(demo, "STAGES", _stub_stages(calls, interrupt=True))
+    argv = ["demo", "--out", str(tmp_path), "--only", "b", "--no-progress"]
+    assert main(argv) == 130
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    assert "stage 'b' published nothing; every file in" in line and "as it was" in line
+    assert _digest(tmp_path) == before  # the reports too: nothing they describe changed
+    # a stage that finished first: its files and the reports change, and the line says so
+    assert main(["demo", "--out", str(tmp_path), "--no-progress"]) == 130
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    assert "stage(s) ['a'] finished before it" in line and "were rewritten" in line
+    assert "Interrupted this time" in (tmp_path / "report.md").read_text()
+
+
+def test_diagnose_a_generic_model_on_a_one_output_recording(tmp_path, capsys):
+    d = np.loadtxt(Path(__file__).parents[1] / "thermogym/datasets/data/daisy_hair_dryer/dryer.dat")
+    rows = "\n".join(f"{0.08 * i:.2f},{u:g},{y:g}" for i, (u, y) in enumerate(d[:300]))
+    hd = tmp_path / "hd.csv"
+    hd.write_text("time,u,y\n" + rows + "\n")
+    argv = ["diagnose", "--model", "ss:3", "--train", str(hd), "--validate", str(hd)]
+    out = tmp_path / "r.json"
+    assert main([*argv, "--out", str(out)]) == 2  # a generic model: name its columns
+    _one_error_line(capsys, "'ss:3' is generic", "--inputs", "--outputs")
+    assert main([*argv, "--inputs", "u", "--outputs", "y", "--out", str(out), "--quiet"]) == 0
+    rep = json.loads(out.read_text())
+    assert rep["outputs"] == ["y"] and rep["model"] == "augmented"  # the ss nominal, wrapped
+    assert "fewer than 8 valid samples" not in capsys.readouterr().err
+
+
+def test_python_api_names_wrong_types_of_recordings_options_and_levels(strut_csv):
+    from thermogym.errors import ConfigError, RecordingError
+    from thermogym.identification.diagnosis import diagnose
+    from thermogym.identification.foptd import fit_foptd
+    from thermogym.identification.n4sid import n4sid
+    from thermogym.recording import read_recording
+    from thermogym.rigs import run_experiment
+
+    with pytest.raises(RecordingError, match=r"the recordings are a str \('hd.csv'\)"):
+        fit_foptd("hd.csv", ["u"], ["y"])
+    with pytest.raises(RecordingError, match=r"a recording is a str \('hd.csv'\)"):
+        n4sid(["hd.csv"], ["u"], ["y"], 2)
+    with pytest.raises(ConfigError, match=r"option feed_rates = 'abc'; expected a list"):
+        run_experiment("strut", "steps", feed_rates="abc")
+    with pytest.raises(ConfigError, match=r"option T_air = \[21\]; expected a finite number"):
+        run_experiment("strut", "steps", T_air=[21])
+    with pytest.raises(ConfigError, match=r"seed is 'x'"):
+        run_experiment("strut", "steps", seed="x")  # type: ignore[arg-type]
+    rec = read_recording(strut_csv)
+    with pytest.raises(ConfigError, match=r"alpha = 2, expected a finite number in \(0, 1\)"):
+        diagnose("strut", [rec], [rec], alpha=2)
+
+
+def test_sigterm_is_an_interruption_too(axt_csv, tmp_path, capsys, monkeypatch):
+    import os
+    import signal
+
+    import thermogym.recording as recording
+
+    out = tmp_path / "sim.csv"
+    out.write_text("time,x\n0,1\n")
+    original = recording.write_recording
+
+    def killed_while_writing(rec, path, **kw):
+        original(rec, path, **kw)  # the staged file is written ...
+        os.kill(os.getpid(), signal.SIGTERM)  # ... then `kill` arrives
+
+    monkeypatch.setattr(recording, "write_recording", killed_while_writing)
+    before = signal.getsignal(signal.SIGTERM)
+    argv = ["simulate", "axt211", "--inputs", str(axt_csv), "--out", str(out)]
+    assert main(argv) == 128 + signal.SIGTERM
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    assert "terminated by SIGTERM: nothing was written over an existing file" in line
+    assert out.read_text() == "time,x\n0,1\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ax.csv", "sim.csv"]
+    assert signal.getsignal(signal.SIGTERM) is before  # the handler is put back
+
+
+def test_sigterm_in_a_search_keeps_its_best_so_far_and_in_the_demo_the_reports(
+    strut_csv, tmp_path, capsys, monkeypatch
+):
+    import os
+    import signal
+
+    import thermogym.demo as demo
+    from thermogym.identification.optimizers import base
+
+    out = tmp_path / "fit.json"
+    out.write_text('{"an": "earlier fit"}\n')
+    calls = {"n": 0}
+    original = base.Tracker.evaluate
+
+    def killed_on_second_batch(self, *a, **kw):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            os.kill(os.getpid(), signal.SIGTERM)  # `kill PID` while the search runs
+        return original(self, *a, **kw)
+
+    monkeypatch.setattr(base.Tracker, "evaluate", killed_on_second_batch)
+    argv = ["identify", "montecarlo", "--model", "strut", str(strut_csv), "--free", "r_motor"]
+    argv += ["--samples", "200", "--batch-size", "50", "--out", str(out), "--no-progress"]
+    assert main(argv) == 128 + signal.SIGTERM  # the search swallowed it; the status tells
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    partial = tmp_path / "fit.interrupted.json"
+    assert line.startswith("thermogym identify: terminated by SIGTERM: the search was stopped")
+    assert str(partial) in line and "left unchanged" in line
+    assert out.read_text() == '{"an": "earlier fit"}\n' and partial.is_file()
+    # the demo handles SIGTERM like Ctrl-C: the reports match the stages that finished
+    folder = tmp_path / "demo"
+    stages = _stub_stages(calls)
+    demo.run_demo(folder, stages=stages, progress=False)
+    killed = _stub_stages(calls)
+
+    def run_b_killed(ctx, res):
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    killed[1] = demo.Stage("b", "B", run_b_killed)
+    monkeypatch.setattr(demo, "STAGES", killed)
+    b_before = _digest(folder / "b")
+    assert main(["demo", "--out", str(folder), "--no-progress"]) == 128 + signal.SIGTERM
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    assert "terminated by SIGTERM: stage 'b' published nothing" in line
+    assert "were rewritten" in line and _digest(folder / "b") == b_before
+    md = (folder / "report.md").read_text()
+    assert "Interrupted this time" in md and "stage b ran" in md
+    # Ctrl-C still exits 130 after a SIGTERM in an earlier command of this process
+    monkeypatch.setattr(demo, "STAGES", _stub_stages(calls, interrupt=True))
+    assert main(["demo", "--out", str(folder), "--only", "b", "--no-progress"]) == 130
+    assert "interrupted: stage 'b'" in capsys.readouterr().err

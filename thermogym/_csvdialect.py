@@ -27,6 +27,7 @@ from thermogym.errors import RecordingError
 __all__ = [
     "CSV_DELIMITERS",
     "TIME_NAMES",
+    "check_encoding",
     "csv_parse_hint",
     "find_time_column",
     "head_lines",
@@ -63,6 +64,71 @@ def head_lines(path: Path, n: int = 30) -> list[str]:
     except (OSError, EOFError) as e:
         raise RecordingError(f"cannot read recording file {str(path)!r}: {e}") from e
     return lines
+
+
+#: Byte-order marks of encodings other than UTF-8, longest first.
+_BOMS: tuple[tuple[bytes, str], ...] = (
+    (b"\xff\xfe\x00\x00", "UTF-32"),
+    (b"\x00\x00\xfe\xff", "UTF-32"),
+    (b"\xff\xfe", "UTF-16"),
+    (b"\xfe\xff", "UTF-16"),
+)
+
+
+def check_encoding(path: str | os.PathLike[str], where: str | None = None) -> None:
+    r"""Refuse a text file that is not UTF-8 (or ASCII), naming the encoding it looks like.
+
+    Spreadsheets save "Unicode text" as UTF-16 and older tools write Latin-1
+    or Windows-1252; read as UTF-8 they give garbled column names or parse
+    errors far from the cause. The first 64 KiB are checked (a UTF-8
+    byte-order mark is fine).
+
+    Raises
+    ------
+    RecordingError
+        The file starts with a UTF-16/32 byte-order mark, holds the NUL bytes
+        of UTF-16/32 text, or bytes that are not UTF-8 (the first is named
+        with its line).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> f = Path(tempfile.mkdtemp()) / "r.csv"
+    >>> _ = f.write_bytes("time,T\n0,20\n".encode("utf-16"))
+    >>> try:
+    ...     check_encoding(f)
+    ... except RecordingError as e:
+    ...     print(str(e).split(";")[0][-14:])
+    is UTF-16 text
+    """
+    path = Path(path)
+    where = where or f"recording file {str(path)!r}"
+    opener: Any = gzip.open if path.name.lower().endswith(".gz") else open
+    try:
+        with opener(path, "rb") as f:
+            head = f.read(65536)
+    except (OSError, EOFError) as e:
+        raise RecordingError(f"cannot read {where}: {e}") from e
+    save = "save it as UTF-8 (a spreadsheet's 'CSV UTF-8'; iconv -f {0} -t UTF-8)"
+    for bom, name in _BOMS:
+        if head.startswith(bom):
+            raise RecordingError(f"{where} is {name} text; " + save.format(name))
+    if b"\x00" in head:
+        pairs = head[: len(head) - len(head) % 2]
+        if pairs and (
+            pairs[1::2].count(0) > len(pairs) // 4 or pairs[0::2].count(0) > len(pairs) // 4
+        ):
+            raise RecordingError(f"{where} looks like UTF-16 text; " + save.format("UTF-16"))
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as e:
+        if e.start < len(head) - 3:  # not just a character cut at the 64 KiB boundary
+            line = head.count(b"\n", 0, e.start) + 1
+            byte = head[e.start : e.start + 1].hex()
+            raise RecordingError(
+                f"{where} is not UTF-8 text: byte 0x{byte} on line {line} (Latin-1 or "
+                "Windows-1252, e.g. a '°' or 'µ'?); " + save.format("LATIN1")
+            ) from None
 
 
 def sniff_csv(

@@ -14,7 +14,10 @@ Exit status and messages (the same for every command):
   ``thermogym COMMAND: error: ...``, naming the offending option, column or
   value; nothing is written;
 * ``130`` interrupted (Ctrl-C): nothing is written over an existing file; a
-  best-so-far result, when kept, goes to a new name that the message gives.
+  best-so-far result, when kept, goes to a new name that the message gives;
+* ``143`` / ``129`` terminated by SIGTERM / SIGHUP (``kill``, ``timeout``, a
+  closed terminal): handled as Ctrl-C (nothing is written over an existing file,
+  a search's best-so-far goes to a new name), the line says which signal.
 
 The shared machinery (typed options, the output guard, interruption) is in
 :mod:`thermogym._cli.common`.
@@ -25,7 +28,9 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -76,7 +81,15 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> argparse.Namespace:
-    args, extra = parser.parse_known_args(argv)
+    items = list(sys.argv[1:] if argv is None else argv)
+    for i, item in enumerate(items):  # no file name or value can hold a NUL character
+        if "\x00" in str(item):
+            after = f" after {items[i - 1]!r}" if i else ""
+            raise UsageError(
+                f"argument {i + 1}{after} holds a NUL character ({one_line(repr(item), 80)}); "
+                "no file name or value can"
+            )
+    args, extra = parser.parse_known_args(items)
     if extra:
         prog = f"thermogym {args.command}" if getattr(args, "command", None) else "thermogym"
         raise UsageError(
@@ -89,13 +102,75 @@ def _parse(parser: argparse.ArgumentParser, argv: Sequence[str] | None) -> argpa
     return args
 
 
+def _short_path(name: Any, limit: int = 120) -> str:
+    """A path for a message: quoted, its middle elided when long (the reason stays visible)."""
+    text = repr(os.fsdecode(name) if isinstance(name, bytes) else str(name))
+    if len(text) <= limit:
+        return text
+    return f"{text[: limit // 2]}…{text[-limit // 2 :]} ({len(text) - 2} characters)"
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP arrived (``kill``, ``timeout``, a closed terminal).
+
+    A ``KeyboardInterrupt``: every path that handles Ctrl-C handles it too
+    (staged outputs discarded, a search's best-so-far kept under a new name,
+    the demo's reports made to match what finished).
+    """
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+#: termination signals received during the running command (the search that keeps
+#: its best-so-far swallows the exception; the exit status still tells the signal)
+_RECEIVED: list[int] = []
+
+
+def _raise_terminated(signum: int, frame: Any) -> None:
+    _RECEIVED.append(signum)
+    raise Terminated(signum)
+
+
+def _termination_handlers() -> dict[int, Any]:
+    """Turn SIGTERM/SIGHUP into :class:`Terminated` (main thread only); the old handlers."""
+    old: dict[int, Any] = {}
+    if threading.current_thread() is not threading.main_thread():
+        return old
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is None:
+            continue
+        try:
+            if signal.getsignal(sig) is signal.SIG_IGN:  # nohup: leave it ignored
+                continue
+            old[sig] = signal.signal(sig, _raise_terminated)
+        except (OSError, ValueError):  # pragma: no cover - not allowed here
+            continue
+    return old
+
+
 def _warn_one_line(message: Any, category: Any, *rest: Any, **kw: Any) -> None:
     print(f"thermogym: warning: {one_line(str(message))}", file=sys.stderr)
+
+
+def _interrupted(prog: str, what: str, signum: int | None) -> int:
+    """Print the one line of an interrupted command; its exit status (130, 143, 129)."""
+    if signum is None and _RECEIVED:
+        signum = _RECEIVED[-1]
+    if signum is None or signum == signal.SIGINT:
+        print(f"{prog}: interrupted: {what}", file=sys.stderr)
+        return 130
+    print(f"{prog}: terminated by {signal.Signals(signum).name}: {what}", file=sys.stderr)
+    return 128 + signum
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status (never raises for bad input)."""
     prog = "thermogym"
+    _RECEIVED.clear()
+    old_handlers = _termination_handlers()
     with warnings.catch_warnings():
         warnings.showwarning = _warn_one_line
         try:
@@ -113,13 +188,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             code = e.code
             return code if isinstance(code, int) else (0 if code is None else 2)
         except Interrupted as e:
-            print(f"{prog}: interrupted: {one_line(str(e))}", file=sys.stderr)
-            return 130
-        except KeyboardInterrupt:
-            print(
-                f"{prog}: interrupted; nothing was written over an existing file", file=sys.stderr
+            return _interrupted(prog, one_line(str(e)), e.signum)
+        except KeyboardInterrupt as e:  # Ctrl-C, or Terminated (SIGTERM, SIGHUP)
+            return _interrupted(
+                prog, "nothing was written over an existing file", getattr(e, "signum", None)
             )
-            return 130
         except BrokenPipeError:  # output piped into e.g. `head`
             try:
                 sys.stdout = open(os.devnull, "w")
@@ -127,8 +200,23 @@ def main(argv: Sequence[str] | None = None) -> int:
                 pass
             return 0
         except OSError as e:  # a file the user named: missing, not readable, disk full
-            where = f" {e.filename!r}" if getattr(e, "filename", None) else ""
+            name = getattr(e, "filename", None)
+            where = f" {_short_path(name)}" if name else ""
             print(f"{prog}: error: cannot use{where}: {e.strerror or e}", file=sys.stderr)
+            return 2
+        except MemoryError:
+            print(
+                f"{prog}: error: out of memory; ask for less at once (smaller --batch-size, "
+                "--samples, --order, shorter or fewer recordings)",
+                file=sys.stderr,
+            )
+            return 2
+        except RecursionError:  # e.g. a JSON file nested thousands of levels deep
+            print(
+                f"{prog}: error: an input is nested too deeply to read (a JSON or YAML file of "
+                "thousands of levels?); check the files given",
+                file=sys.stderr,
+            )
             return 2
         except Exception as e:
             if os.environ.get("THERMOGYM_TRACEBACK"):
@@ -140,6 +228,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return 1
+        finally:
+            for sig, handler in old_handlers.items():
+                signal.signal(sig, handler)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -518,8 +518,13 @@ class FitResult:
         if not p.exists():
             raise ConfigError(f"FitResult file {str(p)!r} does not exist")
         try:
-            text = p.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as e:
+            text = p.read_text(encoding="utf-8-sig")  # a byte-order mark is no error
+        except UnicodeDecodeError as e:
+            raise ConfigError(
+                f"FitResult file {str(p)!r} is not UTF-8 text ({e.reason} at byte {e.start}); "
+                "a FitResult is a UTF-8 JSON file"
+            ) from e
+        except OSError as e:
             raise ConfigError(f"cannot read FitResult file {str(p)!r}: {e}") from e
         try:
             doc = json.loads(text)
@@ -528,6 +533,10 @@ class FitResult:
                 f"FitResult file {str(p)!r} is not valid JSON: {e.msg} at line {e.lineno}, "
                 f"column {e.colno}"
             ) from e
+        except RecursionError:
+            raise ConfigError(
+                f"FitResult file {str(p)!r} is nested too deeply to be a FitResult"
+            ) from None
         try:
             return cls.from_dict(doc)
         except ParameterError as e:

@@ -52,6 +52,7 @@ from numpy.typing import ArrayLike, NDArray
 from thermogym._csvdialect import (
     CSV_DELIMITERS,
     TIME_NAMES,
+    check_encoding,
     csv_parse_hint,
     find_time_column,
     head_lines,
@@ -1254,7 +1255,11 @@ def _read_sidecar(path: Path) -> dict[str, Any]:
     if not side.exists():
         return {}
     try:
-        doc = json.loads(side.read_text(encoding="utf-8"))
+        doc = json.loads(side.read_text(encoding="utf-8-sig"))
+    except RecursionError:
+        raise RecordingError(
+            f"sidecar {str(side)!r} is nested too deeply; fix or delete it"
+        ) from None
     except json.JSONDecodeError as e:
         raise RecordingError(
             f"sidecar {str(side)!r} is not valid JSON (line {e.lineno}, column {e.colno}): "
@@ -1357,6 +1362,11 @@ def read_recording(
     UnitError
         ``units`` disagrees with the file's metadata.
     """
+    if not isinstance(path, str | os.PathLike):
+        raise RecordingError(
+            f"the recording path is a {type(path).__name__} ({repr(path)[:60]}); expected a "
+            "file name (str or pathlib.Path)"
+        )
     path = Path(path)
     where = repr(str(path))
     if not path.exists():
@@ -1367,11 +1377,14 @@ def read_recording(
     if path.stat().st_size == 0:
         raise RecordingError(f"recording file {where} is empty (0 bytes)")
     found: list[str] = []
-    if fmt == "csv":
-        delimiter, decimal, found = sniff_csv(path, delimiter=delimiter, decimal=decimal)
     skip = 0
     if fmt == "csv":
-        skip = leading_comments(head_lines(path, 200))
+        try:
+            check_encoding(path, f"recording file {where}")
+            delimiter, decimal, found = sniff_csv(path, delimiter=delimiter, decimal=decimal)
+            skip = leading_comments(head_lines(path, 200))
+        except OSError as e:  # unreadable (permissions), a bad gzip stream, ...
+            raise RecordingError(f"cannot read recording file {where}: {e}") from e
         if skip:
             found.append(f"skipped {skip} comment line(s) (# ...) before the header")
     try:

@@ -24,6 +24,18 @@ from thermogym.errors import ConfigError
 DEFAULT_SCENARIO = {"AXT211Room": "winter-week", "AXT211Valve": "setpoint-steps"}
 
 
+def _seed_list(text: str) -> tuple[int, ...]:
+    """``--seed-list 0,1,7``: whole numbers in [0, 2**32 - 1], at least one, none twice."""
+    seed = whole(0, 2**32 - 1, what="a seed")
+    items = [x.strip() for x in text.split(",")]
+    if not text.strip() or any(not x for x in items):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected seeds like 0,1,2 (no empty item)")
+    seeds = tuple(seed(x) for x in items)
+    if len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"{text!r} names a seed more than once")
+    return seeds
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Arguments of ``thermogym bench``."""
     p.add_argument("--env", help="environment ID or name (thermogym/AXT211Room-v0, AXT211Room)")
@@ -44,7 +56,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=3,
         help="number of seeds, 0..N-1 (default 3)",
     )
-    p.add_argument("--seed-list", help="explicit comma list of seeds (overrides --seeds)")
+    p.add_argument(
+        "--seed-list",
+        type=_seed_list,
+        help="explicit comma list of seeds (overrides --seeds)",
+    )
     p.add_argument("--out", help="output folder of the report (created)")
     p.add_argument("--backend", choices=["local", "ray", "serial"], default="local")
     p.add_argument(
@@ -125,14 +141,18 @@ def run(args: argparse.Namespace) -> int:
     scenarios: list[str] = []
     for s in args.scenario or [DEFAULT_SCENARIO.get(name, "default")]:
         scenarios += [x.strip() for x in s.split(",") if x.strip()]
+    # names the benchmark would refuse only after starting its workers: refused here
+    from thermogym.controllers.presets import expand_controllers
+    from thermogym.controllers.scenarios import get_scenario
+
+    expand_controllers(args.controllers)
+    if not scenarios:
+        raise ConfigError(f"--scenario {','.join(args.scenario or [])!r} names no scenario")
+    for sc in scenarios:
+        get_scenario(sc)
     seeds: Any = args.seeds
     if args.seed_list:
-        try:
-            seeds = [int(x) for x in args.seed_list.split(",") if x.strip()]
-        except ValueError:
-            raise ConfigError(f"--seed-list {args.seed_list!r}: expected integers") from None
-        if not seeds or any(x < 0 for x in seeds):
-            raise ConfigError(f"--seed-list {args.seed_list!r}: expected integers >= 0")
+        seeds = list(args.seed_list)
     options: dict[str, dict[str, Any]] = {}
     for item in args.policy:
         algo, sep, path = item.partition("=")

@@ -84,8 +84,21 @@ class UsageError(ConfigError):
 class Interrupted(Exception):
     """The user interrupted a command; the message says what was (not) written.
 
-    :func:`thermogym.cli.main` prints it on one line and exits with 130.
+    :func:`thermogym.cli.main` prints it on one line and exits with 130 (Ctrl-C),
+    or ``128 + signum`` when a termination signal (SIGTERM, SIGHUP) ended it.
+
+    Parameters
+    ----------
+    message : str
+        What was and was not written.
+    signum : int, optional
+        The signal that interrupted, when known (else the one :mod:`thermogym.cli`
+        recorded, else SIGINT).
     """
+
+    def __init__(self, message: str, signum: int | None = None) -> None:
+        super().__init__(message)
+        self.signum = signum
 
 
 # =============================================================================== parser
@@ -309,10 +322,38 @@ def _same(a: Path, b: Path) -> bool:
     return a.resolve() == b.resolve()
 
 
+def _check_name(option: str, text: str, anchor: Path) -> None:
+    """Refuse a path the file system cannot take: a part or the whole too long."""
+    try:
+        name_max = os.pathconf(anchor, "PC_NAME_MAX")
+        path_max = os.pathconf(anchor, "PC_PATH_MAX")
+    except (OSError, ValueError, AttributeError):  # pragma: no cover - not POSIX
+        name_max, path_max = 255, 4096
+    long = [part for part in Path(text).parts if len(os.fsencode(part)) > name_max]
+    if long:
+        raise ConfigError(
+            f"{option}: the name {long[0][:40]!r}… is {len(os.fsencode(long[0]))} bytes long; "
+            f"file names take at most {name_max}"
+        )
+    full = len(os.fsencode(os.path.abspath(text)))
+    room = path_max - 1 - 48  # the staging folder the file is written in first
+    if full > room:
+        raise ConfigError(
+            f"{option}: the path is {full} bytes long (absolute); at most {room} are taken"
+        )
+
+
+def _exists(p: Path) -> bool:
+    try:
+        return p.exists()
+    except OSError:  # a name too long, a loop of links
+        return False
+
+
 def _ancestor(p: Path) -> Path:
     """The nearest existing ancestor of ``p`` (``p`` itself excluded)."""
     a = p.parent
-    while not a.exists() and a != a.parent:
+    while not _exists(a) and a != a.parent:
         a = a.parent
     return a
 
@@ -336,22 +377,33 @@ def _partial_name(target: Path) -> Path:
 
 @contextmanager
 def _interrupts_held() -> Iterator[None]:
-    """Hold off Ctrl-C while files are moved into place (main thread only)."""
+    """Hold off Ctrl-C, SIGTERM and SIGHUP while files are moved into place (main thread)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     got: list[Any] = []
+    held = [getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    old: dict[Any, Any] = {}
     try:
-        old = signal.signal(signal.SIGINT, lambda *a: got.append(a))
+        for sig in held:
+            if signal.getsignal(sig) is not signal.SIG_IGN:
+                old[sig] = signal.signal(sig, lambda *a: got.append(a))
     except (ValueError, OSError):  # pragma: no cover - not allowed here
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, old)
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
     if got:  # the files are in place: say so rather than "nothing was written"
-        raise Interrupted("Ctrl-C came while the outputs were moved into place; they were")
+        signum = got[0][0]
+        name = signal.Signals(signum).name
+        raise Interrupted(
+            f"{name} came while the outputs were moved into place; they were", signum=signum
+        )
 
 
 class OutputPlan:
@@ -442,9 +494,12 @@ class OutputPlan:
         text = os.fspath(path) if path is not None else ""
         if not text.strip():
             raise ConfigError(f"{option} is empty; expected a file name")
+        _check_name(option, text, _ancestor(Path(text)))
         p = Path(text)
         if p.is_dir():
             raise ConfigError(f"{option} {text!r} is a folder; expected a file name")
+        if text.endswith(("/", os.sep)):
+            raise ConfigError(f"{option} {text!r} ends in a '/' (a folder); expected a file name")
         suffixes = KIND_SUFFIXES.get(kind)
         if suffixes and not p.name.lower().endswith(suffixes):
             raise ConfigError(
@@ -453,7 +508,7 @@ class OutputPlan:
         parent = p.parent
         if not parent.exists():
             raise ConfigError(
-                f"the folder {str(parent)!r} of {option} {text!r} does not exist; create it first"
+                f"{option} {text!r}: its folder {str(parent)!r} does not exist; create it first"
             )
         if not parent.is_dir():
             raise ConfigError(f"{option} {text!r}: {str(parent)!r} is a file, not a folder")
@@ -470,6 +525,7 @@ class OutputPlan:
         text = os.fspath(path) if path is not None else ""
         if not text.strip():
             raise ConfigError(f"{option} is empty; expected a folder")
+        _check_name(option, text, _ancestor(Path(text)))
         p = Path(text)
         if p.exists() and not p.is_dir():
             raise ConfigError(
@@ -648,6 +704,9 @@ def plan_outputs(
 def one_line(text: str, limit: int = 800) -> str:
     r"""A message on one line (newlines folded, numpy reprs shown as numbers, capped).
 
+    A message longer than ``limit`` keeps its start and its end (where the
+    reason usually is) and loses its middle.
+
     Examples
     --------
     >>> one_line("value np.float64(30.0)\n  expected < 10")
@@ -657,7 +716,11 @@ def one_line(text: str, limit: int = 800) -> str:
 
     text = re.sub(r"\bnp\.(?:float|int|uint|bool_|str_)\w*\(([^()]*)\)", r"\1", str(text))
     text = " ".join(text.split())
-    return text if len(text) <= limit else text[: limit - 1] + "…"
+    if len(text) <= limit:
+        return text
+    # elide the middle: the start names the thing, the end usually says what is wrong
+    head = (2 * limit) // 3
+    return f"{text[:head]} … {text[-(limit - head - 3) :]}"
 
 
 def progress_wanted(requested: bool | None = None, stream: Any = None) -> bool:

@@ -252,6 +252,8 @@ def parse_prepare(items: Sequence[str] | None) -> dict[str, Any] | None:
             raise ConfigError(
                 f"--prepare {key!r} is not a preparation option; options are {sorted(checks)}"
             )
+        if key in out:
+            raise ConfigError(f"--prepare {key} is given twice ({item!r}); give it once")
         try:
             v: Any = ast.literal_eval(value.strip())
         except (ValueError, SyntaxError, MemoryError, RecursionError):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from thermogym._cli.common import plan_outputs, whole
+from thermogym._cli.common import Interrupted, plan_outputs, whole
 from thermogym.errors import ConfigError
 
 
@@ -40,16 +40,27 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the demo; exit status 1 when a stage failed, 2 when none could run."""
-    from thermogym.demo import run_demo
+    from thermogym.demo import DemoInterrupted, run_demo
 
     plan_outputs(args, folders=("out",), unstaged=("out",))  # the demo stages its own files
-    results = run_demo(
-        args.out,
-        quick=args.quick,
-        seed=args.seed,
-        only=args.only,
-        progress=not args.no_progress,
-    )
+    try:
+        results = run_demo(
+            args.out,
+            quick=args.quick,
+            seed=args.seed,
+            only=args.only,
+            progress=not args.no_progress,
+        )
+    except DemoInterrupted as e:
+        if not e.reports:
+            raise Interrupted(
+                f"stage {e.stage!r} published nothing; every file in {args.out} is as it was"
+            ) from None
+        raise Interrupted(
+            f"stage {e.stage!r} published nothing; stage(s) {e.finished} finished before it "
+            f"and replaced their files, so {args.out}/report.html and report.md were rewritten "
+            f"to match (the section of {e.stage!r} is the earlier run's, marked)"
+        ) from None
     if args.no_progress:  # the progress lines said it otherwise
         status = ", ".join(f"{r.key} {r.status}" for r in results)
         print(f"report: {args.out}/report.html (and report.md); stages: {status}")

@@ -17,9 +17,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from thermogym._cli.common import plan_outputs, positive, probability
+from thermogym._cli.common import choice_list, names, plan_outputs, positive, probability
 from thermogym._cli.data import add_data_options, load_recordings
-from thermogym.errors import ConfigError
+from thermogym.errors import ConfigError, UnknownNameError
+from thermogym.vocabulary import EFFECT_NAMES
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -50,9 +51,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--augmented-fit", help="also write the winning augmented model's FitResult JSON"
     )
-    p.add_argument("--inputs", help="generic models: exogenous columns, comma-separated")
-    p.add_argument("--outputs", help="output columns to compare, comma-separated")
-    p.add_argument("--candidates", help="effects to consider, comma-separated (default: all)")
+    p.add_argument(
+        "--inputs", type=names(), help="generic models: exogenous columns, comma-separated"
+    )
+    p.add_argument("--outputs", type=names(), help="output columns to compare, comma-separated")
+    p.add_argument(
+        "--candidates",
+        type=choice_list([e for e in EFFECT_NAMES if e != "none"], "effect"),
+        help="effects to consider, comma-separated (default: all)",
+    )
     p.add_argument(
         "--dt",
         type=positive("s", "a sample period"),
@@ -80,13 +87,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_data_options(p)
 
 
-def _split(text: str | None) -> list[str] | None:
-    if text is None:
-        return None
-    items = [s.strip() for s in text.split(",") if s.strip()]
-    if not items:
-        raise ConfigError(f"{text!r} names no column; expected COL,COL,...")
-    return items
+def _split(items: tuple[str, ...] | None) -> list[str] | None:
+    return None if items is None else list(items)
+
+
+def _check_model(spec: str) -> None:
+    """Refuse an unknown ``--model`` before any recording is read."""
+    from thermogym.models.registry import model_names
+
+    name, sep, order = spec.partition(":")
+    if name == "ss":
+        if sep and (not order.strip().isdigit() or int(order) < 1):
+            raise ConfigError(f"--model {spec!r}: expected ss:ORDER with a whole ORDER >= 1")
+        return
+    if sep or name not in model_names() or name == "augmented":
+        plants = [m for m in model_names() if m not in ("augmented", "ss")]
+        raise UnknownNameError(
+            f"--model {spec!r} is not a model; expected a thermogym plant or foptd "
+            f"({', '.join(plants)}) or ss:ORDER"
+        )
 
 
 def load_data(items: list[str], what: str, args: argparse.Namespace | None = None) -> list:
@@ -98,6 +117,7 @@ def run(args: argparse.Namespace) -> int:
     """Diagnose and write the reports."""
     from thermogym.identification.diagnosis import diagnose
 
+    _check_model(args.model)
     plan = plan_outputs(
         args,
         files={"out": "json", "html": "html", "md": "md", "augmented_fit": "json"},

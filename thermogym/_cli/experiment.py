@@ -49,8 +49,10 @@ _MAX_ITEMS = 100
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare the options."""
-    p.add_argument("rig", help="axt211, spindle or strut")
-    p.add_argument("protocol", help="protocol of the rig (see --list)")
+    p.add_argument("rig", help="axt211, room, spindle or strut")
+    p.add_argument(
+        "protocol", help="protocol of the rig, e.g. strut steps (an unknown one lists the rig's)"
+    )
     p.add_argument("--out", required=True, help="folder for the recordings (created)")
     p.add_argument(
         "--seed",

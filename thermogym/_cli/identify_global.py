@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import inspect
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -73,7 +74,7 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     p.add_argument(
         "data", nargs="+", help="recordings: CSV/Parquet files, folders of them, dataset:NAME"
     )
-    p.add_argument("--out", type=Path, required=True, help="FitResult JSON to write")
+    p.add_argument("--out", required=True, help="FitResult JSON to write")
     add_prepare_option(p)
     add_data_options(p)
     p.add_argument("--effects", nargs="*", default=[], help="physical effects of --model")
@@ -124,7 +125,11 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     m.add_argument("--diff", choices=("forward", "central"), help="greybox: finite differences")
     m.add_argument("--solver", choices=("trf", "dogbox", "lm"), help="greybox: scipy solver")
     m.add_argument(
-        "--samples", type=whole(1, what="a number of parameter sets"), help="montecarlo: sets"
+        "--samples",
+        # a montecarlo run keeps every set it drew (for its intervals): 10^7 sets of a few
+        # parameters are about a gigabyte
+        type=whole(1, 10**7, what="a number of parameter sets"),
+        help="montecarlo: sets (at most 10^7)",
     )
     m.add_argument(
         "--batch-size", type=whole(1, what="a batch size"), help="montecarlo: sets per batch"
@@ -166,8 +171,8 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     ext.add_argument("--workers", type=whole(1, what="a number of workers"), help="processes")
     out = p.add_argument_group("output")
     out.add_argument("--validate", nargs="+", default=[], help="validation recordings")
-    out.add_argument("--history", type=Path, help="write the search history (JSON)")
-    out.add_argument("--plot", type=Path, help="write a PNG of measured vs simulated signals")
+    out.add_argument("--history", help="write the search history (JSON)")
+    out.add_argument("--plot", help="write a PNG of measured vs simulated signals")
     out.add_argument("--no-progress", action="store_true", help="no progress bar")
     out.add_argument("--no-overwrite", action="store_true", help="refuse to replace --out")
     return p
@@ -175,9 +180,12 @@ def build_parser(method: str) -> argparse.ArgumentParser:
 
 def _number(text: str, what: str) -> float:
     try:
-        return float(text)
+        x = float(text)
     except ValueError:
         raise ConfigError(f"{what} is {text!r}, expected a number") from None
+    if not math.isfinite(x):
+        raise ConfigError(f"{what} is {text!r}, expected a finite number")
+    return x
 
 
 def _free_specs(items: list[str], log: list[str]) -> dict[str, Any]:
@@ -187,6 +195,8 @@ def _free_specs(items: list[str], log: list[str]) -> dict[str, Any]:
     for item in items:
         name, _, rng = item.partition("=")
         name = name.strip()
+        if name in out:
+            raise ConfigError(f"--free {name} is given twice ({item!r}); give each once")
         kw: dict[str, Any] = {"scale": "log" if name in log else "linear"}
         if rng:
             parts = rng.split(":")
@@ -196,6 +206,8 @@ def _free_specs(items: list[str], log: list[str]) -> dict[str, Any]:
             kw["upper"] = _number(parts[1], f"upper bound of {name!r}")
             if len(parts) == 3:
                 kw["start"] = _number(parts[2], f"start of {name!r}")
+            if not kw["lower"] < kw["upper"]:
+                raise ConfigError(f"--free {item!r}: expected a lower bound below the upper one")
         out[name] = FreeParameter(name, **kw)
     unknown_log = [n for n in log if n not in out]
     if unknown_log and items:
@@ -245,6 +257,20 @@ def _fixed(items: list[str]) -> dict[str, float]:
     return out
 
 
+def _noise_specs(items: list[str]) -> dict[str, float | None]:
+    """``--input-noise COLUMN[=SIGMA]``: sigma, or None to estimate it from the data."""
+    out: dict[str, float | None] = {}
+    for item in items:
+        col, eq, sigma = item.partition("=")
+        col = col.strip()
+        if not col:
+            raise ConfigError(f"--input-noise {item!r}: expected COLUMN or COLUMN=SIGMA")
+        out[col] = _number(sigma, f"noise of {col!r}") if eq else None
+        if eq and not out[col] > 0:  # type: ignore[operator]
+            raise ConfigError(f"--input-noise {item!r}: expected a noise sigma > 0")
+    return out
+
+
 def _external(args: argparse.Namespace) -> Any:
     try:
         from thermogym.identification.external import load_external
@@ -277,6 +303,9 @@ def main(method: str, argv: list[str]) -> int:
     args = build_parser(method).parse_args(hoist_recordings(argv))
     args.command = "identify"
     prep = parse_prepare(args.prepare)
+    if args.external is not None and not Path(args.external).is_file():
+        what = "is a folder" if Path(args.external).is_dir() else "does not exist"
+        raise ConfigError(f"--external {str(args.external)!r} {what}; expected a TOML/YAML file")
     plan = plan_outputs(
         args,
         files={"out": "json", "history": "json", "plot": "figure"},
@@ -311,6 +340,11 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     if free is None and args.log:
         raise ConfigError("--log needs the parameters given with --free")
     pairs, ratios, fixed = _pairs(args.pair), _ratios(args.ratio), _fixed(args.fix)
+    given_noise = _noise_specs(args.input_noise)
+    if args.external is None:  # an unknown model or effect: refused before reading data
+        from thermogym.models.registry import get_model
+
+        model = get_model(args.model, **({"effects": list(args.effects)} if args.effects else {}))
     recs = load_recordings(args.data, "training", args, prepare=prep)
     validation = (
         load_recordings(args.validate, "validation", args, prepare=prep) if args.validate else None
@@ -318,9 +352,6 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     if args.external is not None:
         model = _external(args)
     else:
-        from thermogym.models.registry import get_model
-
-        model = get_model(args.model, **({"effects": list(args.effects)} if args.effects else {}))
         for rec in [*recs, *(validation or [])]:  # the model's units, before any work
             rec.validate_for(model, outputs=[n for n in model.output_names if n in rec])
     try:
@@ -334,16 +365,13 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             objective=args.objective,
         )
         noise: dict[str, float] = {}
-        for item in args.input_noise:
-            col, eq, sigma = item.partition("=")
-            if eq:
-                noise[col.strip()] = _number(sigma, f"noise of {col.strip()!r}")
-                if not noise[col.strip()] > 0:
-                    raise ConfigError(f"--input-noise {item!r}: expected a noise sigma > 0")
+        for col, sigma in given_noise.items():
+            if sigma is not None:
+                noise[col] = sigma
             else:
                 from thermogym.identification.uncertainty import estimate_input_noise
 
-                noise.update(estimate_input_noise(recs, [col.strip()]))
+                noise.update(estimate_input_noise(recs, [col]))
         result = run_identification(
             problem,
             method,

@@ -49,13 +49,16 @@ def _cols(text: str | None) -> list[str] | None:
 
 
 def _range(text: str) -> range:
-    a, sep, b = text.partition(":")
+    """``--orders A:B`` (an argparse ``type=``: refused before any work starts)."""
+    a, sep, b = str(text).partition(":")
     try:
         lo, hi = int(a), int(b) if sep else int(a)
     except ValueError:
-        raise ConfigError(f"--orders {text!r} is not of the form A:B (whole numbers)") from None
-    if lo < 1 or hi < lo:
-        raise ConfigError(f"--orders {text!r}: expected 1 <= A <= B")
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not of the form A:B (whole numbers)"
+        ) from None
+    if lo < 1 or hi < lo or hi > 500:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected 1 <= A <= B <= 500 (model orders)")
     return range(lo, hi + 1)
 
 
@@ -129,7 +132,9 @@ def build_parser(method: str) -> argparse.ArgumentParser:
     if method == "n4sid":
         g = p.add_mutually_exclusive_group()
         g.add_argument("--order", type=whole(1, 500, what="a model order"), help="model order")
-        g.add_argument("--orders", default="1:10", help="candidate orders A:B (default 1:10)")
+        g.add_argument(
+            "--orders", type=_range, default="1:10", help="candidate orders A:B (default 1:10)"
+        )
         p.add_argument(
             "--folds",
             type=whole(2, 100, what="a number of folds"),
@@ -242,6 +247,9 @@ def main(method: str, argv: list[str]) -> int:
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
     decimate_option(args)
+    early_model(args)
+    if getattr(args, "delays", None):
+        _delays(args.delays)
     plan = plan_outputs(
         args,
         files={"out": "json"},
@@ -250,6 +258,27 @@ def main(method: str, argv: list[str]) -> int:
     )
     with plan:
         return _identify(method, args, prep, plan)
+
+
+def _delays(text: str) -> list[int]:
+    """``--delays 2`` or ``--delays 2,3`` (one per output): whole numbers of samples >= 0."""
+    try:
+        delays = [int(v) for v in text.split(",")]
+    except ValueError:
+        raise ConfigError(
+            f"--delays {text!r}: expected whole numbers of samples, comma-separated"
+        ) from None
+    if any(v < 0 for v in delays):
+        raise ConfigError(f"--delays {text!r}: expected delays >= 0 samples")
+    return delays
+
+
+def early_model(args: argparse.Namespace) -> None:
+    """Refuse an unknown ``--model`` (whose signal names are used) before reading data."""
+    if getattr(args, "model", None):
+        from thermogym.models.registry import get_model
+
+        get_model(args.model)
 
 
 def decimate_option(args: argparse.Namespace) -> None:
@@ -342,14 +371,7 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
         est = RecursiveFOPTD.from_fit(args.from_fit, forgetting=args.forgetting)
     else:
         if args.delays:
-            try:
-                delays = [int(v) for v in args.delays.split(",")]
-            except ValueError:
-                raise ConfigError(
-                    f"--delays {args.delays!r}: expected whole numbers of samples, comma-separated"
-                ) from None
-            if any(v < 0 for v in delays):
-                raise ConfigError(f"--delays {args.delays!r}: expected delays >= 0 samples")
+            delays = _delays(args.delays)
             n = min(r.n_samples for r in train)
             if max(delays) >= n // 2:
                 raise ConfigError(
@@ -415,7 +437,7 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     }
     cv = None
     order = args.order
-    orders = _range(args.orders) if args.order is None else range(args.order, args.order + 1)
+    orders = args.orders if args.order is None else range(args.order, args.order + 1)
     notes: list[Any] = []
     folds = None
     if args.folds is not None or opm == "auto":

@@ -24,7 +24,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from thermogym._cli.common import CliParser, plan_outputs, seconds, whole
+from thermogym._cli.common import CliParser, choice_list, plan_outputs, seconds, whole
 from thermogym._cli.data import (
     add_data_options,
     add_prepare_option,
@@ -156,8 +156,45 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         p.add_argument("--no-refine", action="store_true", help="N4SID only, no PEM refinement")
         p.add_argument("--focus", choices=("prediction", "simulation"), default="simulation")
     if method == "auto":
-        p.add_argument("--families", default="arx,oe,sopdt,ssest", help="families compared")
+        p.add_argument(
+            "--families",
+            type=choice_list(_FAMILIES, "family"),
+            default="arx,oe,sopdt,ssest",
+            help=f"families compared, some of {','.join(_FAMILIES)} (default arx,oe,sopdt,ssest)",
+        )
     return p
+
+
+#: The families ``identify auto`` compares (thermogym.identification.ssest.identify_auto).
+_FAMILIES = ("arx", "armax", "oe", "bj", "sopdt", "ssest")
+
+
+def _orders_range(text: str) -> range:
+    """``--orders A:B`` of ssest, or a one-line error naming it."""
+    a, _, b = text.partition(":")
+    try:
+        orders_r = range(int(a), int(b or a) + 1)
+    except ValueError:
+        raise ConfigError(f"--orders {text!r} is not of the form A:B") from None
+    if orders_r.start < 1 or len(orders_r) == 0 or orders_r.stop - 1 > 500:
+        raise ConfigError(f"--orders {text!r}: expected 1 <= A <= B <= 500")
+    return orders_r
+
+
+def _early(method: str, args: argparse.Namespace) -> None:
+    """Parse the structured options into ``args`` before any work starts."""
+    if method in ("arx", "armax", "oe", "bj"):
+        args.pem_orders = {
+            k: _ints(k, getattr(args, k, None)) for k in ("na", "nb", "nc", "nd", "nf", "nk")
+        }
+    if method == "ssest":
+        args.orders_r = _orders_range(args.orders)
+        delay = (
+            None if args.input_delay in (None, "auto") else _ints("input-delay", args.input_delay)
+        )
+        if isinstance(delay, list):
+            raise ConfigError("--input-delay: one delay for all inputs")
+        args.delay = delay
 
 
 def choose_operating_point(
@@ -192,7 +229,7 @@ def choose_operating_point(
 
 def main(method: str, argv: list[str]) -> int:
     """Run ``thermogym identify METHOD ARGS``."""
-    from thermogym._cli.identify_linear import _cols
+    from thermogym._cli.identify_linear import _cols, early_model
 
     if method not in METHODS:
         raise ConfigError(f"unknown PEM method {method!r}; expected one of {METHODS}")
@@ -200,6 +237,8 @@ def main(method: str, argv: list[str]) -> int:
     args.command = "identify"
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
+    _early(method, args)
+    early_model(args)
     plan = plan_outputs(
         args, files={"out": "json"}, folders=("plots",), inputs=("data", "validate")
     )
@@ -215,6 +254,14 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     vals = load_recordings(args.validate, "validation", args, prepare=prep)
     inputs, outputs = signals(args, train[0])
     dist = _cols(args.disturbances)
+    max_delay = getattr(args, "max_delay_s", None)
+    if max_delay is not None:  # as foptd: a delay longer than the data cannot be told
+        span = min(r.duration for r in train)
+        if max_delay > span:
+            raise ConfigError(
+                f"--max-delay-s {max_delay:g} s is longer than the recording ({span:g} s); "
+                "expected a delay within it"
+            )
     op = args.operating_point
     if op == "auto":
         op, scores = choose_operating_point(train, inputs, outputs, dist, args.folds)
@@ -230,7 +277,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     if method in ("arx", "armax", "oe", "bj"):
         from thermogym.identification.pem import pem
 
-        orders = {k: _ints(k, getattr(args, k, None)) for k in ("na", "nb", "nc", "nd", "nf", "nk")}
+        orders = args.pem_orders
         res = pem(
             train,
             inputs,
@@ -258,18 +305,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     elif method == "ssest":
         from thermogym.identification.ssest import ssest
 
-        a, _, b = args.orders.partition(":")
-        try:
-            orders_r = range(int(a), int(b or a) + 1)
-        except ValueError:
-            raise ConfigError(f"--orders {args.orders!r} is not of the form A:B") from None
-        if orders_r.start < 1 or len(orders_r) == 0:
-            raise ConfigError(f"--orders {args.orders!r}: expected 1 <= A <= B")
-        delay = (
-            None if args.input_delay in (None, "auto") else _ints("input-delay", args.input_delay)
-        )
-        if isinstance(delay, list):
-            raise ConfigError("--input-delay: one delay for all inputs")
+        orders_r, delay = args.orders_r, args.delay
         res = ssest(
             train,
             inputs,
@@ -293,7 +329,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     else:
         from thermogym.identification.ssest import identify_auto
 
-        fams = [f.strip() for f in args.families.split(",") if f.strip()]
+        fams = list(args.families)
         res = identify_auto(
             train,
             inputs,

@@ -64,9 +64,16 @@ def run(args: argparse.Namespace) -> int:
             args.fit, rec, x0=args.x0, k_step=args.k_step, max_lag=args.max_lag, alpha=args.alpha
         )
         what = f"{args.k_step}-step prediction errors" if args.k_step else "simulation residuals"
+        # the tests use at most a quarter of the valid samples as lags
+        used = min((min(args.max_lag, t.n_samples // 4) for t in tests.values()), default=1)
+        lags = f"lags up to {used}" + (
+            f" (--max-lag {args.max_lag} reduced to a quarter of the samples)"
+            if used < args.max_lag
+            else ""
+        )
         print(
             f"residual tests of {what} on {rec.experiment_id or args.data} "
-            f"(lags up to {args.max_lag}, level {args.alpha:g})"
+            f"({lags}, level {args.alpha:g})"
         )
         for name, t in tests.items():
             verdict = "white" if t.white(args.alpha) else "NOT white (coloured residuals)"

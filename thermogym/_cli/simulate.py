@@ -44,6 +44,8 @@ def parse_sets(items: list[str]) -> dict[str, float]:
     for item in items:
         name, sep, value = item.partition("=")
         name = name.strip()
+        if sep and name in out:
+            raise ConfigError(f"--set {name} is given twice ({item!r}); give each parameter once")
         try:
             out[name] = float(value)
         except ValueError:

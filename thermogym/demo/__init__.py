@@ -48,6 +48,7 @@ from thermogym.demo.control import stage_control
 from thermogym.demo.core import (
     MANIFEST,
     DemoContext,
+    DemoInterrupted,
     Stage,
     StageResult,
     StageSkipped,
@@ -65,6 +66,7 @@ from thermogym.errors import UnknownNameError
 __all__ = [
     "STAGES",
     "DemoContext",
+    "DemoInterrupted",
     "Stage",
     "StageResult",
     "StageSkipped",
@@ -137,6 +139,21 @@ def _sections(
             out.append(old)
         elif r is not None:
             out.append(r)
+        elif entry.get("status") in ("failed", "interrupted"):
+            # not run this time, and it did not finish last time: say so (its log stays)
+            when = entry.get("ran_at") or "an earlier run"
+            if old is None or old.status != entry["status"]:
+                old = StageResult(
+                    stage.key,
+                    stage.title,
+                    status=str(entry["status"]),
+                    error=f"see logs/{stage.key}.txt",
+                    ran_at=str(entry.get("ran_at", "")),
+                )
+            old.carried = True
+            old.seconds = 0.0
+            old.note = f"Not run this time: it {old.status} in the run of {when}."
+            out.append(old)
     return out
 
 
@@ -180,9 +197,11 @@ def run_demo(
     ------
     UnknownNameError
         A key in ``only`` is not a stage.
-    KeyboardInterrupt
-        Ctrl-C; raised after the manifest and the reports were written for
-        what finished (the interrupted stage published nothing).
+    DemoInterrupted
+        Ctrl-C (a ``KeyboardInterrupt``); the interrupted stage published
+        nothing. The manifest and the reports are rewritten only when a stage
+        of this run finished before it (its files were replaced); otherwise
+        every file in ``out`` is as it was.
     """
     every = list(STAGES if stages is None else stages)
     todo = every
@@ -204,6 +223,11 @@ def run_demo(
     except (OSError, ValueError, KeyError):
         manifest = {}
     sections = _sections(every, results, earlier, manifest)
+    stopped = next((r.key for r in results if r.status == "interrupted"), None)
+    finished = [r.key for r in results if r.status in ("ok", "failed")]
+    if stopped is not None and not finished:
+        # nothing this run did changed a file: the earlier reports still describe the folder
+        raise DemoInterrupted(stopped, [], reports=False)
     atomic_write_many(
         [
             (ctx.out / "report.md", _writer(render_markdown(sections, **kw))),
@@ -218,7 +242,7 @@ def run_demo(
                             "sections": [
                                 {**r.to_dict(), "carried": False, "note": ""}
                                 for r in sections
-                                if r.status == "ok"
+                                if r.status in ("ok", "failed")
                             ],
                         },
                         indent=1,
@@ -228,8 +252,8 @@ def run_demo(
             ),
         ]
     )
-    if any(r.status == "interrupted" for r in results):
-        raise KeyboardInterrupt
+    if stopped is not None:
+        raise DemoInterrupted(stopped, finished, reports=True)
     if progress:
         print(f"report: {ctx.out / 'report.html'} (and report.md); total {total:.0f} s")
     return results

@@ -37,7 +37,7 @@ def stage_control(ctx: DemoContext, res: StageResult) -> None:
         seeds=seeds,
         out=folder,
         plants=("model", "rig"),
-        progress=ctx.progress,
+        progress=ctx.bars,
         title="thermogym demo: AXT211 valve controllers",
     )
     t = bench.table

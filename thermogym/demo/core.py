@@ -147,6 +147,24 @@ class StageSkipped(Exception):
     """Raised by a stage whose inputs are missing."""
 
 
+class DemoInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a demo run: what was and was not written (a ``KeyboardInterrupt``).
+
+    Attributes
+    ----------
+    stage : str
+        Key of the interrupted stage (it published nothing).
+    finished : list of str
+        Stages of this run that finished before it (their files were replaced).
+    reports : bool
+        Whether the reports were rewritten (only when a stage finished).
+    """
+
+    def __init__(self, stage: str, finished: list[str], reports: bool) -> None:
+        super().__init__(stage)
+        self.stage, self.finished, self.reports = stage, finished, reports
+
+
 @dataclass
 class DemoContext:
     """Shared state of a demo run.
@@ -216,9 +234,18 @@ class DemoContext:
                 + (f" (earlier outputs not reused: {why})" if why else "")
             )
 
+    @property
+    def bars(self) -> bool:
+        """Whether stages draw progress bars: progress on and stderr a terminal.
+
+        Pass this (not :attr:`progress`) to library functions that take
+        ``progress=`` for a bar, so that piped output gets no cursor codes.
+        """
+        return bool(self.progress and getattr(sys.stderr, "isatty", lambda: False)())
+
     def bar(self, items: Iterable[T], desc: str, total: int | None = None) -> Iterator[T]:
         """Iterate with a tqdm bar on stderr when progress is on and stderr is a terminal."""
-        if not self.progress or not getattr(sys.stderr, "isatty", lambda: False)():
+        if not self.bars:
             yield from items  # no cursor codes in pipes and logs
             return
         from tqdm.auto import tqdm
@@ -384,7 +411,10 @@ def run_stages(
             except StageSkipped as e:
                 res.status, res.error = "skipped", str(e)
             except KeyboardInterrupt:
-                res.status, res.error = "interrupted", "interrupted (Ctrl-C); nothing published"
+                res.status, res.error = (
+                    "interrupted",
+                    "interrupted (Ctrl-C, SIGTERM); nothing published",
+                )
                 res.seconds = time.perf_counter() - t0
                 res.figures, res.files = [], []
                 results.append(res)

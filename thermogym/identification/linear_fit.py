@@ -24,6 +24,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -85,6 +86,23 @@ class Experiment:
     recording: Recording
 
 
+def recording_list(recordings: Any, what: str) -> list[Recording]:
+    """``recordings`` (one Recording or an iterable of them) as a list, or a clear error.
+
+    A file name is the usual mistake: it would otherwise be taken apart into
+    its characters.
+    """
+    if isinstance(recordings, Recording):
+        return [recordings]
+    if isinstance(recordings, str | bytes | os.PathLike) or not hasattr(recordings, "__iter__"):
+        raise RecordingError(
+            f"{what}: the recordings are a {type(recordings).__name__} "
+            f"({repr(recordings)[:60]}); expected a Recording or a list of them (read files "
+            "with thermogym.recording.read_recording)"
+        )
+    return list(recordings)
+
+
 def exogenous_roles(
     rec: Recording, exogenous: Sequence[str], disturbances: Sequence[str] | None = None
 ) -> tuple[list[str], list[str]]:
@@ -128,7 +146,7 @@ def signal_arrays(
         See :func:`~thermogym.identification.prepare.check_identification_data`;
         also recordings with different sample periods.
     """
-    recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
+    recs = recording_list(recordings, what)
     if not recs:
         raise ConfigError(f"{what}: no recording given")
     if not inputs:
@@ -513,7 +531,7 @@ def evaluate_fit(
         where ``fit_report`` gives NRMSE, RMSE, ξ per output and the MNRMSE.
     """
     fit = load_fit(fit)
-    recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
+    recs = recording_list(recordings, "evaluation")
     outs = list(fit.build_model().output_names)
     per: dict[str, Any] = {}
     vals = []

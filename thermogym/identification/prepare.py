@@ -931,6 +931,11 @@ def check_identification_data(
     ...
     thermogym.errors.IdentificationError: input 'u' of recording None is constant ...
     """
+    if not isinstance(rec, Recording):
+        raise RecordingError(
+            f"{what}: a recording is a {type(rec).__name__} ({repr(rec)[:60]}); expected a "
+            "thermogym Recording (read files with thermogym.recording.read_recording)"
+        )
     names = [*inputs, *outputs]
     rec.select(names)  # raises UnknownNameError naming the missing column
     dup = sorted({n for n in names if names.count(n) > 1})

@@ -39,6 +39,31 @@ Role = Literal["input", "disturbance", "output"]
 ROLES: tuple[str, ...] = ("input", "disturbance", "output")
 _NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
+#: Most fixed integrator steps one simulation of one parameter set may take (about
+#: three years of 1 s steps): beyond it a time axis is almost surely in the wrong
+#: unit (milliseconds read as seconds, epoch seconds) and the run would not end.
+MAX_INTEGRATOR_STEPS = 10**8
+
+
+def check_step_budget(model: str, n_substeps: int, n_samples: int, dt: float) -> None:
+    """Refuse a simulation of more than :data:`MAX_INTEGRATOR_STEPS` integrator steps.
+
+    Raises
+    ------
+    SimulationError
+        Naming the span, the sample period and the steps it would take.
+    """
+    steps = int(n_substeps) * max(int(n_samples) - 1, 1)
+    if steps > MAX_INTEGRATOR_STEPS:
+        span = dt * max(n_samples - 1, 1)
+        raise SimulationError(
+            f"model {model!r}: {n_samples} samples {dt:g} s apart (a span of {span:g} s) need "
+            f"{steps:.3g} integrator steps ({n_substeps} per sample), more than "
+            f"{MAX_INTEGRATOR_STEPS:.0e}; is the time in seconds? Resample onto a shorter "
+            "period or shorten the recording"
+        )
+
+
 ThetaLike = (
     None | Mapping[str, ArrayLike] | Sequence[Mapping[str, ArrayLike]] | NDArray[np.floating]
 )
@@ -355,7 +380,13 @@ class Model(ABC):
             and len(values) > 0
             and not isinstance(values[0], Mapping)
         ):
-            th = np.array(values, dtype=float)
+            try:
+                th = np.array(values, dtype=float)
+            except (TypeError, ValueError) as e:
+                raise ParameterError(
+                    f"theta cannot be read as numbers ({e}); expected an array ({P},) or "
+                    f"(B, {P}) of the parameters {list(self.param_names)} of model {self.name!r}"
+                ) from None
             given = th.shape
             if th.ndim == 1:
                 th = th[None, :]
@@ -401,7 +432,16 @@ class Model(ABC):
                 f"unknown parameter(s) {unknown} for model {self.name!r}; parameters are "
                 f"{list(self.param_names)}"
             )
-        arrays = {k: np.atleast_1d(np.asarray(v, dtype=float)) for k, v in values.items()}
+        arrays = {}
+        for k, v in values.items():
+            try:
+                arrays[k] = np.atleast_1d(np.asarray(v, dtype=float))
+            except (TypeError, ValueError):
+                shown = repr(v.item() if isinstance(v, np.generic) else v)
+                raise ParameterError(
+                    f"parameter {k!r} of model {self.name!r} is {shown[:80]}; expected a "
+                    "finite number (or an array of them, one per parameter set)"
+                ) from None
         sizes = {a.shape[0] for a in arrays.values() if a.shape[0] != 1}
         if base is not None and base.shape[0] != 1:
             sizes.add(base.shape[0])
@@ -431,8 +471,14 @@ class Model(ABC):
 
     # ----------------------------------------------------------------- numerics
     def _exog_batch(self, u: ArrayLike) -> NDArray[np.float64]:
-        ua = np.asarray(u, dtype=float)
         n = len(self.exogenous)
+        try:
+            ua = np.asarray(u, dtype=float)
+        except (TypeError, ValueError) as e:
+            raise ShapeError(
+                f"u cannot be read as numbers ({e}); expected an array (T, {n}) or (B, T, {n}) "
+                f"with columns {list(self.exogenous_names)}"
+            ) from None
         if ua.ndim == 1 and n == 1:
             ua = ua[:, None]
         if ua.ndim == 2:
@@ -506,10 +552,16 @@ class Model(ABC):
         self, u: ArrayLike, dt: float, theta: ThetaLike
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Checked parameter batch (B, P) and exogenous batch (B, T, n_u) of :meth:`simulate`."""
-        if not (np.isfinite(dt) and dt > 0):
-            raise ShapeError(f"dt is {dt!r}, expected a positive sample period in seconds")
+        try:  # a number (text and booleans are mistakes here)
+            ok = not isinstance(dt, str | bytes | bool | np.bool_) and 0 < float(dt) < math.inf
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            shown = repr(dt.item() if isinstance(dt, np.generic) else dt)
+            raise ShapeError(f"dt is {shown[:80]}, expected a positive sample period in seconds")
         th = self.theta(theta)
         ua = self._exog_batch(u)
+        check_step_budget(self.name, self.n_substeps(float(dt)), ua.shape[1], float(dt))
         B = max(th.shape[0], ua.shape[0])
         if th.shape[0] not in (1, B) or ua.shape[0] not in (1, B):
             raise ShapeError(f"theta batch {th.shape[0]} and u batch {ua.shape[0]} differ")
@@ -554,10 +606,19 @@ class Model(ABC):
     ) -> Simulation:
         """Wrap kernel outputs in a :class:`Simulation` (non-finite check when ``strict``)."""
         if strict and not np.isfinite(y).all():
-            b = int(np.argwhere(~np.isfinite(y))[0][0])
+            b, k, j = (int(i) for i in np.argwhere(~np.isfinite(y))[0])
+            ub = ua[min(b, ua.shape[0] - 1)]
+            # the inputs up to that sample, largest magnitude first: often the cause
+            span = np.max(np.abs(ub[: k + 1]), axis=0)
+            inputs = ", ".join(
+                f"{n} up to {float(v):.4g}"
+                for v, n in sorted(zip(span, self.exogenous_names, strict=True), reverse=True)
+            )
+            params = {n: float(v) for n, v in zip(self.param_names, th[b], strict=True)}
             raise SimulationError(
-                f"model {self.name!r}: simulation of parameter set {b} became non-finite; "
-                f"parameters {dict(zip(self.param_names, th[b], strict=True))}"
+                f"model {self.name!r}: simulation of parameter set {b} became non-finite at "
+                f"sample {k} (time {t0 + k * dt:g} s, output {self.output_names[j]!r}); inputs "
+                f"so far: {inputs} (magnitudes); parameters {params}"
             )
         T = ua.shape[1]
         units = {s.name: s.unit for s in self._signals}

@@ -41,7 +41,7 @@ from scipy.linalg import expm
 from thermogym.errors import ConfigError
 from thermogym.models._blas import blas_threads
 from thermogym.models._effects import EffectLayout, PhysicalEffect
-from thermogym.models.base import Model, Parameter, Signal
+from thermogym.models.base import Model, Parameter, Signal, check_step_budget
 
 __all__ = [
     "NETWORK_EFFECTS",
@@ -522,6 +522,7 @@ class ThermalNetworkModel(Model):
         else:
             raise ConfigError(f"substeps is {substeps!r}; expected an integer of at least 1")
         B, T = u.shape[0], u.shape[1]
+        check_step_budget(self.name, nsub, T, dt)
         y = np.empty((B, T, net.H.shape[0]))
         xs = np.empty((B, T, len(self.nodes))) if return_states else np.empty((1, 1, 1))
         qx = np.zeros((1, 1, 1)) if q_ext is None else np.ascontiguousarray(q_ext, dtype=float)

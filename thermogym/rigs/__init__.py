@@ -22,8 +22,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from thermogym._fileio import atomic_write_text
-from thermogym.errors import ConfigError, UnknownNameError
+from thermogym.errors import ConfigError, SimulationError, UnknownNameError
 from thermogym.recording import Recording, write_recording
 from thermogym.rigs.axt211 import AXT211Rig
 from thermogym.rigs.base import (
@@ -44,6 +46,7 @@ from thermogym.rigs.strut import StrutRig
 
 __all__ = [
     "EFFECT_NAMES",
+    "PHYSICAL_C",
     "EffectSpec",
     "ExtraPhysics",
     "PhysicalParameter",
@@ -52,6 +55,7 @@ __all__ = [
     "Sensor",
     "Specimens",
     "TruePlant",
+    "check_physical",
     "get_rig",
     "parse_effect",
     "rig_names",
@@ -96,6 +100,40 @@ def get_rig(
     if off or options:
         return cls(effects, off=off, **options)  # type: ignore[call-arg]
     return cls(effects)
+
+
+#: Temperatures [°C] a rig's recording can hold: above absolute zero, below where its
+#: parts would have melted (steels about 1400-1500 °C; the rigs' waxes, oils and plastics far
+#: lower). A value outside means the protocol's options drove the simulation out of its
+#: physics (e.g. a feed rate of 1e300 m/min), not a measurement.
+PHYSICAL_C = (-273.15, 2000.0)
+
+
+def check_physical(rec: Recording, rig: str, protocol: str) -> None:
+    """Refuse a rig recording with an infinite value or an impossible temperature.
+
+    Missing samples (NaN: sensor dropouts) are allowed.
+
+    Raises
+    ------
+    SimulationError
+        Naming the recording, the column, the first bad value and its time.
+    """
+    lo, hi = PHYSICAL_C
+    for name in rec.columns:
+        v = rec[name]
+        bad = np.isinf(v)
+        if rec.units.get(name) == "°C":
+            bad |= (v < lo) | (v > hi)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise SimulationError(
+                f"rig {rig!r} protocol {protocol!r}: recording {rec.experiment_id!r} has "
+                f"{name} = {float(v[k]):.4g} {rec.units.get(name, '')} at time "
+                f"{float(rec.time[k]):g} s, outside what the rig can hold ({lo:g} to {hi:g} °C, "
+                "finite); its options drove the simulation out of its physics: choose values "
+                "nearer the protocol's defaults"
+            )
 
 
 def to_recording(run: RigRun, rig: str) -> Recording:
@@ -151,6 +189,8 @@ def run_experiment(
         raise ConfigError(f"format {fmt!r} is not supported; use 'csv' or 'parquet'")
     r = get_rig(rig, effects)
     recs = [to_recording(run, rig) for run in r.run(protocol, seed=seed, **options)]
+    for rec in recs:
+        check_physical(rec, rig, protocol)
     if out is not None:
         folder = Path(out)
         folder.mkdir(parents=True, exist_ok=True)

@@ -34,6 +34,7 @@ augmentations, and recorded metadata never names them.
 from __future__ import annotations
 
 import inspect
+import math
 import re
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -749,6 +750,11 @@ class Rig:
                 f"protocol {protocol!r} of rig {self.name!r} has no option(s) {unknown}; "
                 f"options are {accepted}"
             )
+        if isinstance(seed, bool | np.bool_) or not isinstance(seed, int | np.integer) or seed < 0:
+            raise ConfigError(f"seed is {seed!r}; expected a whole number >= 0")
+        defaults = inspect.signature(proto.run).parameters
+        for k, v in options.items():
+            _check_option(f"protocol {protocol!r} of rig {self.name!r}", k, v, defaults[k].default)
         rng = np.random.default_rng(seed)
         runs = proto.run(self, rng, **options)
         for r in runs:
@@ -756,6 +762,36 @@ class Rig:
             r.meta.setdefault("protocol", protocol)
             r.meta.setdefault("seed", seed)
         return runs
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float | np.integer | np.floating) and not isinstance(
+        v, bool | np.bool_
+    )
+
+
+def _check_option(where: str, key: str, value: Any, default: Any) -> None:
+    """Refuse a protocol option of another type than its default (a number, a list of them)."""
+    if isinstance(default, bool):
+        if not isinstance(value, bool | np.bool_):
+            raise ConfigError(f"{where}: option {key} = {value!r:.60}; expected True or False")
+    elif _is_number(default):
+        if not _is_number(value) or not math.isfinite(float(value)):
+            raise ConfigError(f"{where}: option {key} = {value!r:.60}; expected a finite number")
+        if isinstance(default, int) and float(value) != int(value):
+            raise ConfigError(f"{where}: option {key} = {value!r:.60}; expected a whole number")
+    elif isinstance(default, list | tuple) and default and all(_is_number(x) for x in default):
+        items = [value] if _is_number(value) else value
+        if (
+            isinstance(items, str | bytes)
+            or not hasattr(items, "__len__")
+            or len(items) == 0
+            or not all(_is_number(x) and math.isfinite(float(x)) for x in items)
+        ):
+            raise ConfigError(
+                f"{where}: option {key} = {value!r:.60}; expected a list of finite numbers like "
+                f"{list(default)}"
+            )
 
 
 def first_order_lag(x: NDArray[np.float64], tau: float, dt: float) -> NDArray[np.float64]:

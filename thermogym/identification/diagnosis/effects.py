@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import with_unit
 from thermogym.models.base import Model
 
 __all__ = [
@@ -576,7 +577,8 @@ def candidates_for(ctx: Context, feats: dict[str, Any]) -> list[Candidate]:
                     )
                 },
                 [],
-                f"mean residual of {o} = {fo[o]['offset_value']:.3g} {ctx.units.get(o, '')}, "
+                f"mean residual of {o} = "
+                f"{with_unit(format(fo[o]['offset_value'], '.3g'), ctx.units.get(o))}, "
                 f"{100 * fo[o]['offset']:.0f} % of its mean square",
                 fo[o]["offset"],
             )
@@ -593,7 +595,8 @@ def candidates_for(ctx: Context, feats: dict[str, Any]) -> list[Candidate]:
             cfg,
             {f"drift_{o}": (float(np.clip(fo[o]["drift_per_h"], -hi, hi)), -hi, hi)},
             [],
-            f"residual of {o} grows by {fo[o]['drift_per_h']:.3g} {ctx.units.get(o, '')}/h "
+            f"residual of {o} grows by "
+            f"{with_unit(format(fo[o]['drift_per_h'], '.3g'), ctx.units.get(o))}/h "
             f"(R² = {fo[o]['drift']:.2f})",
             fo[o]["drift"],
         )

@@ -35,6 +35,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import with_unit
+
 __all__ = ["Regime", "locate", "regime_variables"]
 
 _TEMP = ("°C", "K", "degC")
@@ -157,7 +159,7 @@ def regime_variables(
                         "input_level",
                         name,
                         lab,
-                        [f"{v:g} {units.get(name, '')}".strip() for v in levels],
+                        [with_unit(f"{v:g}", units.get(name)) for v in levels],
                         [np.asarray(a, dtype=float) for a in arrays],
                     )
                 )

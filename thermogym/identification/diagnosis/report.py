@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 import thermogym
+from thermogym._checks import with_unit
 from thermogym._fileio import atomic_write_text, to_jsonable
 from thermogym.errors import ConfigError
 from thermogym.fitresult import FitResult
@@ -198,7 +199,7 @@ class DiagnosisReport:
         rows = []
         for i, h in enumerate(self.hypotheses):
             params = ", ".join(
-                f"{k} = {_f(v['value'], 3)} {v['unit']}".strip()
+                f"{k} = {with_unit(_f(v['value'], 3), v['unit'])}"
                 for k, v in (h.get("params") or {}).items()
                 if not k.startswith(("dist_cos",))
             )

@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import probability
 from thermogym.errors import ConfigError, RecordingError, UnknownNameError
 from thermogym.fitresult import FitResult, data_entry, load_fit
 from thermogym.identification.diagnosis.effects import (
@@ -533,6 +534,7 @@ def diagnose(
         )
     if scheme not in ("auto", "split", "crossfit"):
         raise ConfigError(f"scheme is {scheme!r}; expected 'auto', 'split' or 'crossfit'")
+    alpha = probability("alpha", alpha, error=ConfigError)  # a test level in (0, 1)
     if candidates is not None:
         unknown = [c for c in candidates if c not in CATALOGUE or c == "none"]
         if unknown:
@@ -567,7 +569,9 @@ def diagnose(
             f"({list(nominal.output_names)}); columns are {list(tr_list[0].columns)}: are they "
             "recordings of another plant?"
         )
-    say(f"model {name}: outputs {outs}")
+    # the model as the caller named it ('ss:3'), not its internal wrapper ('augmented')
+    shown = model if isinstance(model, str) else name
+    say(f"model {shown}: outputs {outs}")
     # generic linear models see measured disturbances as deviations from their first value
     # (the operating point), manipulated inputs as they are (at rest: zero before the start)
     dev = [s.name for s in nominal.disturbances] if generic else []
@@ -591,8 +595,16 @@ def diagnose(
     if params is not None:
         fit_in = load_fit(params)
         if fit_in.model != name:
+            hint = (
+                f"; the nominal model of {shown!r} is fitted here when params (--params) is "
+                "left out, or give the augmented FitResult (--augmented-fit) of an earlier "
+                f"diagnosis with {shown!r}"
+                if generic and name == "augmented"
+                else f"; give a FitResult of {shown!r} or leave out params (--params)"
+            )
             raise ConfigError(
-                f"the FitResult is for model {fit_in.model!r}; the diagnosis model is {name!r}"
+                f"the FitResult (params, --params) is for model {fit_in.model!r}, not for the "
+                f"diagnosed model {shown!r}{hint}"
             )
         nominal = fit_in.build_model()
         theta0 = fit_in.theta(nominal)[0]

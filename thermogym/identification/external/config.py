@@ -403,11 +403,11 @@ def _load_file(path: Path) -> dict[str, Any]:
         raise ConfigError(f"cannot read the external-model configuration {str(path)!r}: {e}") from e
     try:
         if text_suffix == ".toml":
-            data = tomllib.loads(raw.decode("utf-8"))
+            data = tomllib.loads(raw.decode("utf-8-sig"))
         elif text_suffix in (".yaml", ".yml"):
-            data = yaml.safe_load(raw.decode("utf-8"))
+            data = yaml.safe_load(raw.decode("utf-8-sig"))
         elif text_suffix == ".json":
-            data = json.loads(raw.decode("utf-8"))
+            data = json.loads(raw.decode("utf-8-sig"))
         else:
             raise ConfigError(
                 f"configuration file {str(path)!r} has the suffix {text_suffix!r}; expected "
