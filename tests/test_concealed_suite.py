@@ -78,9 +78,7 @@ def test_the_case_maker_draws_its_effects_from_the_rigs_only():
 def test_no_rig_module_imports_the_diagnosis_or_an_augmentation(path):
     imps = _imports(path)
     bad = [
-        i
-        for i in imps
-        if any(_touches(i, e) for e in (*EXPLAINERS, "thermogym.identification"))
+        i for i in imps if any(_touches(i, e) for e in (*EXPLAINERS, "thermogym.identification"))
     ]
     assert not bad, f"{path.name}: {bad}"
 
