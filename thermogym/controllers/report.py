@@ -54,7 +54,7 @@ def _md_table(header: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
-def _lifetime_section(table: Any) -> list[str]:
+def _lifetime_section(table: Any, figures: dict[str, list[str]] | None = None) -> list[str]:
     """Ranks of the controllers under every wear measure, with Kendall's τ to the default."""
     ranks = lifetime_rankings(table)
     if not ranks:
@@ -90,6 +90,8 @@ def _lifetime_section(table: Any) -> list[str]:
             + ".",
             "",
         ]
+        for rel in (figures or {}).get(f"lifetime|{scen}|{plant}", []):
+            lines += [f"![{Path(rel).stem}]({rel})", ""]
     return lines
 
 
@@ -187,7 +189,7 @@ def summary_markdown(
         lines += [_md_table(header, rows), ""]
         for rel in (figures or {}).get("gap", []):
             lines += [f"![{Path(rel).stem}]({rel})", ""]
-    lines += _lifetime_section(t)
+    lines += _lifetime_section(t, figures)
     lines += [
         "## Reproducing",
         "",
