@@ -18,10 +18,21 @@ grid, every controller's accuracy, energy and lifetime KPI as a ratio to the
 room-thermostat peer (``onoff``), plus the harness throughput (local processes
 against one process on the same grid) with the machine load.
 
+Each report shows, beside the KPI tables, the sim-to-real gap (the same
+controllers on the identified model and on the rig's own true plant), how the
+controllers' lifetime ranking changes with the wear measure (the heater's
+switching operations, cycle counts and Miner sums under other S-N assumptions)
+and the Pareto front with the switching operations as a wear axis of their own.
+
 Usage::
 
     python benchmarks/controllers.py [--seeds 5] [--only room|valve] [--json PATH]
         [--out benchmarks/results/controllers] [--workers 2]
+    python benchmarks/controllers.py --redraw [--only room|valve]   # report from the tables
+
+``--redraw`` runs no episode: it rebuilds ``summary.md`` and the figures of a
+folder from its ``results.parquet`` and ``trajectories.parquet`` (after a change
+of the report code); a Discussion appended by hand is dropped, as on a re-run.
 """
 
 from __future__ import annotations
@@ -120,6 +131,40 @@ def run_grid(name: str, seeds: int, out: Path, workers: int) -> dict:
     }
 
 
+def redraw(name: str, out: Path) -> dict:
+    """Rebuild the report of a grid from its committed tables (no episode is run)."""
+    import numpy as np
+    import pandas as pd
+
+    from thermogym.controllers.harness import BenchmarkResult
+    from thermogym.controllers.report import write_report
+
+    _, _, title = GRIDS[name]
+    folder = out / name
+    table = pd.read_parquet(folder / "results.parquet")
+    trajs: dict = {}
+    tp = folder / "trajectories.parquet"
+    if tp.exists():
+        tf = pd.read_parquet(tp)
+        keys = ["scenario", "controller", "plant", "seed"]
+        for key, grp in tf.groupby(keys, sort=False):
+            sig = grp.drop(columns=keys).dropna(axis=1, how="all")
+            trajs[(key[0], key[1], key[2], int(key[3]))] = {
+                c: np.asarray(sig[c], dtype=float) for c in sig.columns
+            }
+    run = json.loads((folder / "run.json").read_text()) if (folder / "run.json").exists() else {}
+    res = BenchmarkResult(
+        table,
+        trajs,
+        [],
+        str(run.get("backend", "local")),
+        int(run.get("workers", 1)),
+        float(run.get("seconds", float("nan"))),
+    )
+    files = write_report(res, folder, title=f"Controller benchmark — {title}")
+    return {"folder": str(folder), "files": sorted(files)}
+
+
 def throughput(workers: int) -> dict:
     """Episodes per second of the local backend against one process on the same small grid."""
     kw = {"seeds": 4, "record": "none", "report": False}
@@ -151,7 +196,14 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--json", type=Path)
     ap.add_argument("--no-throughput", action="store_true")
+    ap.add_argument(
+        "--redraw", action="store_true", help="rebuild the reports from their tables, run nothing"
+    )
     args = ap.parse_args()
+    if args.redraw:
+        for name in [args.only] if args.only else list(GRIDS):
+            print(json.dumps(redraw(name, args.out), indent=1))
+        return
     print(f"machine load (1/5/15 min): {_load()}, {os.cpu_count()} CPUs")
     result: dict = {"load_before": _load(), "grids": {}}
     for name in [args.only] if args.only else list(GRIDS):

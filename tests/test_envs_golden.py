@@ -33,8 +33,15 @@ def test_closed_loop_matches_the_golden_trajectory(name, ctrl):
     assert got["signal_names"].tolist() == ref["signal_names"].tolist()
     for key in ("obs", "actions", "rewards", "signals"):
         np.testing.assert_allclose(got[key], ref[key], rtol=1e-6, atol=1e-6, err_msg=key)
-    assert got["kpi_names"].tolist() == ref["kpi_names"].tolist()
-    np.testing.assert_allclose(got["kpis"], ref["kpis"], rtol=1e-6, atol=1e-9)
+    # every KPI of the reference keeps its value; KPIs added since (the S-N variants of the
+    # wax damage, issue 14) are checked by tests/test_kpis.py, not here
+    names = got["kpi_names"].tolist()
+    ref_names = ref["kpi_names"].tolist()
+    assert set(ref_names) <= set(names), f"KPIs gone: {set(ref_names) - set(names)}"
+    kpis = dict(zip(names, got["kpis"].tolist(), strict=True))
+    np.testing.assert_allclose(
+        [kpis[k] for k in ref_names], ref["kpis"], rtol=1e-6, atol=1e-9, err_msg="kpis"
+    )
 
 
 def test_golden_episodes_exercise_the_controllers():

@@ -106,6 +106,12 @@ def test_report_files_and_summary(tiny):
     md = (out / "summary.md").read_text()
     assert "setpoint-steps@1 on the model" in md and "Sim-to-real gap" in md
     assert " ± " in md and "Pareto-optimal" in md
+    # the lifetime ranking under other S-N assumptions and the switching operations as wear
+    assert "## Lifetime: how the ranking depends on the wear measure" in md
+    assert "Kendall τ" in md and "switching ops" in md and "Miner m=4 ≥2 K" in md
+    assert "switching operations as a wear axis of their own" in md
+    assert (res.table["wax_damage"] == res.table["wax_damage_m2_ge2K"]).all()
+    assert (res.table["wax_cycles_ge20K"] <= res.table["wax_cycles_ge2K"]).all()
     figs = sorted(p.name for p in (out / "figures").iterdir())
     assert any(f.endswith("_trajectories.png") for f in figs)
     assert any(f.endswith("_pareto.png") for f in figs)

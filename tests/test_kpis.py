@@ -10,6 +10,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from thermogym.envs import kpis
@@ -140,6 +141,39 @@ def test_miner_damage_follows_the_s_n_curve():
     assert d_full / d_half == pytest.approx(8.0)
     with pytest.raises(ShapeError):
         kpis.miner_damage([(1.0, 1.0)], n_ref=0.0)
+
+
+def test_s_n_variants_cut_off_and_weigh_the_cycles():
+    # two 50 K cycles, one 8 K cycle, a 3 K half cycle: by hand
+    cycles = [(50.0, 1.0), (50.0, 1.0), (8.0, 1.0), (3.0, 0.5)]
+    k = kpis.wax_cycle_kpis(cycles)
+    assert k["wax_thermal_cycles"] == 3.5 and k["wax_cycles_ge5K"] == 3.0
+    assert k["wax_cycles_ge10K"] == k["wax_cycles_ge20K"] == 2.0
+    n = kpis.DAMAGE_N_REF
+    assert k["wax_damage_m3_ge2K"] == pytest.approx((2 + 0.16**3 + 0.5 * 0.06**3) / n)
+    assert k["wax_damage_m1_ge5K"] == pytest.approx((2 + 0.16) / n)
+    assert k["wax_damage_m4_ge10K"] == pytest.approx(2 / n)
+    assert k["wax_damage"] == k["wax_damage_m2_ge2K"]  # the default is one of the variants
+    assert set(k) == {"wax_thermal_cycles", "wax_damage", *kpis.sn_columns()}
+
+
+def test_cycle_count_and_miner_damage_can_rank_two_controllers_oppositely():
+    # many small cycles (a fast PWM) against a few full strokes (a thermostat)
+    from thermogym.controllers.tables import lifetime_rankings
+
+    fast = kpis.wax_cycle_kpis([(6.0, 1.0)] * 200)
+    slow = kpis.wax_cycle_kpis([(50.0, 1.0)] * 20)
+    t = pd.DataFrame([fast, slow]).assign(
+        scenario="s", plant="model", controller=["fast", "slow"], switch_cycles=[900.0, 20.0]
+    )
+    r = lifetime_rankings(t)[("s", "model")]
+    rank, tau = r["rank"], r["tau"]
+    assert rank.at["slow", "wax_damage"] == 2  # 20 full cycles: 200 · 0.12² < 20
+    assert rank.at["slow", "wax_cycles_ge2K"] == 1 and rank.at["fast", "switch_cycles"] == 2
+    assert rank.at["fast", "wax_cycles_ge10K"] == 1  # the small cycles are under the cut-off
+    assert rank.at["fast", "wax_damage_m1_ge2K"] == 2  # m = 1: 200 · 0.12 = 24 > 20 · 1
+    assert tau["wax_cycles_ge2K"] == tau["wax_damage_m1_ge2K"] == -1.0
+    assert tau["wax_damage_m3_ge2K"] == 1.0
 
 
 # ------------------------------------------------------------------ accuracy

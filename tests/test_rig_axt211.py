@@ -113,13 +113,18 @@ def test_steps_cover_the_ranges_with_the_rigs_sensors():
 
 
 def test_specimens_differ_in_every_parameter_with_a_spread():
+    # issue 14: "the manufacturing spread of every parameter"; the one exception is the
+    # exponent of the free-convection law, a law of physics rather than a specimen property
     s = specimen_spread(np.random.default_rng(1), n=30)
     plant = AXT211Plant()
+    fixed = {p.name for p in plant.parameters if p.spread == 0}
+    assert fixed == {"n_conv"}
     for p in plant.parameters:
         v = s[p.name]
         if p.spread > 0:
             assert v.std() > 0, p.name
             assert np.all((v >= p.lower) & (v <= p.upper)), p.name
+            assert p.spread_source, p.name
         else:
             assert np.all(v == p.nominal), p.name
     # production dates share a shift of the melting temperature

@@ -194,3 +194,20 @@ def test_thermostat_day_on_the_rig():
     rig = get_rig("room", valve="equal_percentage")
     assert rig.plant().valve == "equal_percentage"
     assert rig.with_specimen({"C_air": 2e5}).valve == "equal_percentage"
+
+
+@pytest.mark.parametrize("effect", ["phase_change", "supply_variation"])
+def test_concealed_actuator_effects_change_the_room_and_leave_no_trace(effect, tmp_path):
+    import json
+
+    from thermogym.rigs import run_experiment
+
+    clean = run_experiment("room", "thermostat", seed=2, days=0.25)[0]
+    got = run_experiment("room", "thermostat", tmp_path, seed=2, days=0.25, effects=[effect])[0]
+    # the actuator's own physics changes when the valve opens: stroke and heat differ
+    assert np.nanmax(np.abs(got["x_V"] - clean["x_V"])) > 0.05, effect
+    text = " ".join(p.read_text() for p in tmp_path.iterdir() if p.suffix == ".json")
+    text += json.dumps(got.meta)
+    assert "effect" not in text
+    for word in (effect, *get_rig("room").effect_defaults[effect]):
+        assert word not in text, (effect, word)

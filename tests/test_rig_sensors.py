@@ -94,3 +94,41 @@ def test_batches_and_bad_settings():
         Sensor().measure(np.zeros(5), _rng(), np.arange(4.0))
     with pytest.raises(ShapeError, match="increase"):
         Sensor().measure(np.zeros(3), _rng(), np.array([0.0, 2.0, 1.0]))
+
+
+#: Where each rig's lags and its spikes/dropouts live when not in its Sensor settings: a row
+#: of the plant's table (probe lags are plant states there) or the raw protocol (the
+#: spindle's multiplexer writes its outliers and Bluetooth drop-outs itself).
+_PLANT_LAG_ROWS = {"strut": "thermocouple_lag", "spindle": "sensor_mounting"}
+_RAW_FAULTS = {"spindle"}
+
+
+@pytest.mark.parametrize("name", ["axt211", "room", "spindle", "strut"])
+def test_every_rig_has_coloured_noise_quantisation_lags_and_faults(name):
+    # issue 14: "sensors on every rig: coloured (not only white) noise, quantisation, lags,
+    # and the occasional spike or dropout"
+    from thermogym.rigs import get_rig
+
+    rig = get_rig(name)
+    sensors = list(rig.sensors.values())
+    assert any(s.colored > 0 and s.colored_tau > 0 for s in sensors), "coloured noise"
+    assert all(s.resolution > 0 for s in sensors), "quantisation"
+    rows = {e.name for e in rig.plant().extras}
+    assert any(s.lag > 0 for s in sensors) or _PLANT_LAG_ROWS.get(name) in rows, "lags"
+    faults = any(s.spike_rate > 0 or s.dropout_rate > 0 for s in sensors)
+    assert faults or name in _RAW_FAULTS, "spikes or dropouts"
+
+
+def test_room_bus_polls_hold_the_last_value_and_contact_sensors_spike():
+    from thermogym.rigs import get_rig
+
+    s = get_rig("room").sensors
+    t = np.arange(0.0, 400 * 3600.0, 60.0)  # 400 h at 1 min
+    truth = 21.0 + np.sin(t / 5000.0)  # always moving: a repeated reading is a held poll
+    zone = s["T_zone"].replace(noise=0.0, colored=0.0, resolution=0.0).measure(truth, _rng(3), t)
+    held = np.count_nonzero(np.diff(zone) == 0.0)
+    # 0.1 polls lost per hour, 3 min each (on a 1 min grid: about 3 held samples each)
+    assert 40 < held < 250 and np.isfinite(zone).all()
+    sup = s["T_supply"].replace(noise=0.0, lag=0.0, resolution=0.0).measure(truth, _rng(4), t)
+    spikes = np.abs(sup - truth) > 0.9
+    assert 8 <= spikes.sum() <= 35  # 0.05 per hour over 400 h: 20 expected

@@ -298,3 +298,23 @@ def test_concealed_effects_leave_no_trace_in_the_metadata(tmp_path, effect):
     for key in SpindleRig.effect_defaults.get(effect, {}):
         if key != "signal":
             assert f'"{key}"' not in text, key
+
+
+def test_distributed_nodes_are_converged_and_the_lumped_spindle_is_not():
+    # 60 nodes against a finer grid (60 shaft, 20 + 20 housing segments) over 6 h at 6000 rpm:
+    # within 0.2 K; switched off (17 nodes, the model's size) the bearings run kelvins cooler
+    # (the lumped shaft and housings spread the bearing heat over their whole capacity)
+    U = np.tile([6000.0, 22.0], (36, 1))
+    ref = SpindlePlant(n_shaft=60, n_housing=20)
+    spec = ref.nominal(1)
+    y = {
+        k: p.simulate(U, 600.0, spec).outputs[0]
+        for k, p in (
+            ("ref", ref),
+            ("on", SpindlePlant()),
+            ("off", SpindlePlant(off=["distributed_nodes"])),
+        )
+    }
+    assert np.abs(y["on"] - y["ref"]).max() < 0.2
+    bearings = [i for i, k in enumerate(TEMPERATURES) if "bearing" in k]
+    assert np.all(y["off"][-1, bearings] < y["ref"][-1, bearings] - 2.0)

@@ -6,7 +6,10 @@
 * :func:`plot_kpi_bars` — mean KPI per controller with the seed spread;
 * :func:`plot_pareto` — energy against lifetime against accuracy, the
   non-dominated controllers marked;
-* :func:`plot_gap` — the accuracy and energy KPIs on the model and on the rig.
+* :func:`plot_gap` — the accuracy and energy KPIs on the model and on the rig;
+* :func:`plot_lifetime_ranks` — each controller's rank under every wear measure
+  (switching operations, stem travel, cycle counts and Miner sums under other S-N
+  assumptions).
 """
 
 from __future__ import annotations
@@ -21,13 +24,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from thermogym.controllers.tables import MAIN_KPIS, kpi_axes, pareto_front
+from thermogym.controllers.tables import MAIN_KPIS, kpi_axes, lifetime_rankings, pareto_front
 from thermogym.plotting import save_figure
 
 __all__ = [
     "benchmark_figures",
     "plot_gap",
     "plot_kpi_bars",
+    "plot_lifetime_ranks",
     "plot_pareto",
     "plot_trajectories",
 ]
@@ -195,8 +199,42 @@ def plot_gap(table: Any, path: Path, *, title: str = "") -> Path | None:
     return save_figure(fig, path)
 
 
+def plot_lifetime_ranks(table: Any, path: Path, *, title: str = "") -> Path | None:
+    """Rank of every controller (1 = least wear) under each wear measure, one line each.
+
+    ``table`` holds one scenario on one plant; None when it has no wear measures
+    (:func:`~thermogym.controllers.tables.lifetime_rankings`).
+    """
+    ranks = lifetime_rankings(table)
+    if len(ranks) != 1:
+        return None
+    r = next(iter(ranks.values()))
+    rank, labels = r["rank"], r["labels"]
+    cols = list(labels)
+    fig, ax = plt.subplots(figsize=(1.0 + 0.62 * len(cols), 0.6 + 0.32 * len(rank) + 1.6))
+    x = np.arange(len(cols))
+    for c in rank.index:
+        y = rank.loc[c, cols].to_numpy(dtype=float)
+        ax.plot(x, y, "o-", lw=1.2, ms=4)
+        ax.annotate(str(c), (x[-1], y[-1]), xytext=(4, 0), textcoords="offset points",
+                    fontsize=7, va="center")  # fmt: skip
+    ax.set_xticks(x, [labels[k] for k in cols], rotation=50, ha="right", fontsize=7)
+    ax.set_yticks(np.arange(1, len(rank) + 1))
+    ax.invert_yaxis()
+    ax.set_ylabel("rank (1 = least wear)")
+    ax.set_xlim(-0.3, len(cols) - 0.2 + 1.4)
+    ax.grid(alpha=0.3)
+    ax.set_title(title or "lifetime ranking under each wear measure", fontsize=9)
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
 def benchmark_figures(res: Any, folder: Path) -> dict[str, list[Path]]:
-    """Every figure of a benchmark; ``"scenario|plant"`` (and ``"gap"``) → paths."""
+    """Every figure of a benchmark by key: ``"scenario|plant"``, ``"lifetime|…"``, ``"gap"``.
+
+    ``"lifetime|scenario|plant"`` holds the lifetime-ranking figure of that scenario and
+    plant (:func:`plot_lifetime_ranks`), shown in the report's lifetime section.
+    """
     folder.mkdir(parents=True, exist_ok=True)
     t = res.table
     env_name = str(t["env_id"].iloc[0]).split("/")[-1].split("-v")[0]
@@ -225,6 +263,11 @@ def benchmark_figures(res: Any, folder: Path) -> dict[str, list[Path]]:
         if p is not None:
             paths.append(p)
         out[f"{scen}|{plant}"] = paths
+        lr = plot_lifetime_ranks(
+            grp, folder / f"{tag}_lifetime_ranks.png", title=f"{env_name}, {scen}, {plant}"
+        )
+        if lr is not None:
+            out[f"lifetime|{scen}|{plant}"] = [lr]
     gaps = []
     for scen, grp in t.groupby("scenario", sort=False):
         p = plot_gap(

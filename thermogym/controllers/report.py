@@ -7,8 +7,10 @@
 ``summary.md``
     Per scenario and plant: mean ± standard deviation (over seeds) of every
     KPI per controller, the sim-to-real gap when both plants ran, the
-    Pareto-optimal controllers on energy, lifetime and accuracy, and the
-    figures.
+    Pareto-optimal controllers on energy, lifetime and accuracy (and with the
+    heater's switching operations as a wear axis of their own), how the
+    lifetime ranking changes with the S-N assumptions (cut-off, exponent) and
+    between counting cycles and Miner's damage, and the figures.
 ``trajectories.parquet``
     The recorded episodes (block means), long format.
 ``figures/``
@@ -25,6 +27,7 @@ never leaves a half-written file in place of a good one.
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 from typing import Any
@@ -37,6 +40,7 @@ from thermogym.controllers.tables import (
     MAIN_KPIS,
     format_mean_std,
     kpi_axes,
+    lifetime_rankings,
     pareto_front,
     sim_to_real_gap,
 )
@@ -48,6 +52,63 @@ def _md_table(header: list[str], rows: list[list[str]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
     return "\n".join(lines)
+
+
+def _lifetime_section(table: Any, figures: dict[str, list[str]] | None = None) -> list[str]:
+    """Ranks of the controllers under every wear measure, with Kendall's τ to the default."""
+    ranks = lifetime_rankings(table)
+    if not ranks:
+        return []
+    lines = [
+        "## Lifetime: how the ranking depends on the wear measure",
+        "",
+        "Rank of each controller (1 = least wear) by the heater's switching operations "
+        "(relay contacts), the stem's travel, the rainflow count of wax-temperature cycles "
+        "at least a cut-off range (twice the amplitude; smaller cycles do no damage) and "
+        "Palmgren-Miner's sum `Σ n (ΔT/50 K)^m / 1e5` for exponents m and cut-offs "
+        "(`thermogym.envs.kpis`; the S-N curve of a wax cartridge is not published, "
+        "so none of these is the true one). Last row: Kendall's τ between the "
+        "ranking and the one by the default Miner sum (m = 2, ≥ 2 K); 1 = the same order.",
+        "",
+    ]
+    for (scen, plant), r in ranks.items():
+        rank, tau, labels = r["rank"], r["tau"], r["labels"]
+        cols = list(labels)
+        lines += [f"### {scen} on the {'virtual rig' if plant == 'rig' else 'model'}", ""]
+        rows = [[f"`{c}`", *[str(int(rank.at[c, k])) for k in cols]] for c in rank.index]
+        rows.append(
+            ["Kendall τ", *[f"{tau[k]:.2f}" if math.isfinite(tau[k]) else "–" for k in cols]]
+        )
+        lines += [_md_table(["controller", *[labels[k] for k in cols]], rows), ""]
+        best = {k: ", ".join(f"`{c}`" for c in rank.index[rank[k] == 1]) for k in cols}
+        groups: dict[str, list[str]] = {}
+        for k in cols:
+            groups.setdefault(best[k], []).append(labels[k])
+        lines += [
+            "Least wear: "
+            + "; ".join(f"{who} by {', '.join(what)}" for who, what in groups.items())
+            + ".",
+            "",
+        ]
+        for rel in (figures or {}).get(f"lifetime|{scen}|{plant}", []):
+            lines += [f"![{Path(rel).stem}]({rel})", ""]
+    return lines
+
+
+def _pareto_with_switching(mean: Any, axes: dict[str, str]) -> list[str]:
+    """Pareto front with the switching operations as a fourth (wear) axis."""
+    if len(axes) != 3 or "switch_cycles" not in mean.columns:
+        return []
+    if axes["lifetime"] == "switch_cycles":
+        return []
+    keys = [axes["energy"], axes["lifetime"], "switch_cycles", axes["accuracy"]]
+    front = pareto_front(mean[keys].to_numpy())
+    names = [f"`{c}`" for c, f in zip(mean.index, front, strict=True) if f]
+    return [
+        "With the heater's switching operations as a wear axis of their own "
+        f"({', '.join(keys)}): " + ", ".join(names) + ".",
+        "",
+    ]
 
 
 def summary_markdown(
@@ -101,6 +162,8 @@ def summary_markdown(
                 + ".",
                 "",
             ]
+            wear = [k for k in dict.fromkeys([*axes.values(), "switch_cycles"]) if k in t.columns]
+            lines += _pareto_with_switching(g[wear].mean(), axes)
         for rel in (figures or {}).get(f"{scen}|{plant}", []):
             lines += [f"![{Path(rel).stem}]({rel})", ""]
     gap = sim_to_real_gap(t, [k for k in kpis if k in t.columns])
@@ -126,6 +189,7 @@ def summary_markdown(
         lines += [_md_table(header, rows), ""]
         for rel in (figures or {}).get("gap", []):
             lines += [f"![{Path(rel).stem}]({rel})", ""]
+    lines += _lifetime_section(t, figures)
     lines += [
         "## Reproducing",
         "",

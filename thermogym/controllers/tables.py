@@ -14,6 +14,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy import stats
+
+from thermogym.envs.kpis import SN_CUTOFFS_K, SN_EXPONENTS, sn_columns
 
 __all__ = [
     "AXES",
@@ -21,6 +24,8 @@ __all__ = [
     "MAIN_KPIS",
     "format_mean_std",
     "kpi_axes",
+    "lifetime_rankings",
+    "lifetime_variants",
     "pareto_front",
     "sim_to_real_gap",
 ]
@@ -147,3 +152,94 @@ def sim_to_real_gap(table: Any, kpis: Sequence[str] | None = None) -> Any:
             row[f"{c}_gap"] = b[c] - a[c]
         rows.append(row)
     return pd.DataFrame(rows).set_index(["scenario", "controller"]) if rows else pd.DataFrame()
+
+
+#: The reference lifetime measure of :func:`lifetime_rankings` (the default S-N curve).
+LIFETIME_REFERENCE = "wax_damage"
+
+
+def lifetime_variants(columns: Sequence[str]) -> dict[str, str]:
+    """Wear measures of a table a controller ranking is compared under: column → label.
+
+    The heater's switching operations (relay wear), the stem's travel, the
+    rainflow cycle count of the wax temperature at every cut-off, the Miner sum
+    at every exponent (smallest cut-off) and at every cut-off (default
+    exponent), in that order; only the columns present
+    (:func:`thermogym.envs.kpis.wax_cycle_kpis` writes the S-N variants).
+
+    Examples
+    --------
+    >>> v = lifetime_variants(["switch_cycles", "wax_damage", "wax_cycles_ge5K"])
+    >>> list(v.values())
+    ['switching ops', 'cycles ≥5 K', 'Miner m=2 ≥2 K']
+    """
+    cols = set(columns)
+    out = {"switch_cycles": "switching ops", "stroke_travel_mm": "stem travel"}
+    variants = sn_columns()
+    c0 = SN_CUTOFFS_K[0]
+    for name, (kind, cut, _) in variants.items():
+        if kind == "cycles":
+            out[name] = f"cycles ≥{cut:g} K"
+    for m in SN_EXPONENTS:
+        out[f"wax_damage_m{m:g}_ge{c0:g}K"] = f"Miner m={m:g} ≥{c0:g} K"
+    for cut in SN_CUTOFFS_K[1:]:
+        out[f"wax_damage_m2_ge{cut:g}K"] = f"Miner m=2 ≥{cut:g} K"
+    # the default S-N curve is m = 2 from the smallest cut-off (envs/kpis.py): its own column
+    # (the same values as its variant column, which is shown under the default's name)
+    ref = f"wax_damage_m2_ge{c0:g}K"
+    if LIFETIME_REFERENCE in cols:
+        out = {(LIFETIME_REFERENCE if k == ref else k): v for k, v in out.items()}
+    return {k: v for k, v in out.items() if k in cols}
+
+
+def lifetime_rankings(table: Any) -> dict[tuple[str, str], dict[str, Any]]:
+    """How the lifetime ranking of the controllers changes with the wear measure.
+
+    For every (scenario, plant) of a benchmark table: the controllers' mean of
+    each measure of :func:`lifetime_variants`, their rank under it (1 = least
+    wear; ties share the best rank) and Kendall's τ between that ranking and
+    the one by the default Miner sum (``wax_damage``: exponent 2, cut-off
+    2 K).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A benchmark table (one row per episode).
+
+    Returns
+    -------
+    dict
+        ``(scenario, plant) → {"mean": DataFrame, "rank": DataFrame, "tau":
+        Series, "labels": dict}`` (controllers as rows, measures as columns);
+        empty when the table has no default Miner sum.
+
+    Examples
+    --------
+    >>> t = pd.DataFrame({"scenario": "s", "plant": "model", "controller": ["a", "b"],
+    ...                   "wax_damage": [2.0, 1.0], "switch_cycles": [1.0, 9.0]})
+    >>> r = lifetime_rankings(t)[("s", "model")]
+    >>> r["rank"].to_dict("list"), float(r["tau"]["switch_cycles"])
+    ({'switch_cycles': [1, 2], 'wax_damage': [2, 1]}, -1.0)
+    """
+    labels = lifetime_variants(list(table.columns))
+    if LIFETIME_REFERENCE not in labels:
+        return {}
+    cols = list(labels)
+    out: dict[tuple[str, str], dict[str, Any]] = {}
+    for (scen, plant), grp in table.groupby(["scenario", "plant"], sort=False):
+        mean = grp.groupby("controller", sort=False)[cols].mean()
+        rank = mean.rank(method="min").astype(int)
+        ref = rank[LIFETIME_REFERENCE]
+        tau = {}
+        for c in cols:
+            if len(rank) < 2 or rank[c].nunique() < 2 or ref.nunique() < 2:
+                tau[c] = math.nan
+            else:
+                tau[c] = float(stats.kendalltau(ref, rank[c]).statistic)
+        out[(str(scen), str(plant))] = {
+            "mean": mean,
+            "rank": rank,
+            "tau": pd.Series(tau),
+            "labels": labels,
+        }
+    return out

@@ -120,7 +120,14 @@ def stage_sensor(ctx: DemoContext, res: StageResult) -> None:
         )
         avr = f"; ATmega328P step {sim.step_ms:.2f} ms under simavr"
     else:
-        fw_rows.append(["ATmega328P", "not run", "avr-gcc / simavr not installed"])
+        fw_rows.append(
+            [
+                "ATmega328P",
+                "not run",
+                "avr-gcc / simavr not installed (`make demo` installs gcc-avr, avr-libc and "
+                "simavr with apt-get where it runs as root; `make -C firmware avr-tools`)",
+            ]
+        )
         avr = "; AVR build not run (avr-gcc / simavr not installed)"
     res.table(["firmware check", "result", "details"], fw_rows, "Sensor-module firmware (C99)")
     if not host_ok:

@@ -137,7 +137,7 @@ from thermogym.envs._kernels import (
     tp_push,
 )
 from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
-from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
+from thermogym.envs.kpis import _rainflow_tp, tp_finish, tp_update_at, wax_cycle_kpis
 from thermogym.envs.profiles import synthetic_weather
 from thermogym.errors import ConfigError
 from thermogym.models import _vmath
@@ -1042,8 +1042,7 @@ class _RoomEngine(Engine):
             "switch_cycles": float(a[_A_SW]),
             "stroke_travel_mm": float(a[_A_TRAV]),
             "stroke_reversals": float(a[_A_TPX + 3]),
-            "wax_thermal_cycles": float(sum(c for _, c in cycles)),
-            "wax_damage": miner_damage(cycles),
+            **wax_cycle_kpis(cycles),
             "time_above_limit_h": float(a[_A_ABOVE] / 3600.0),
             "episode_h": float(self.ctr[b, C_K] * self._dt / 3600.0),
         }

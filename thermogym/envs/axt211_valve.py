@@ -121,7 +121,7 @@ from thermogym.envs._kernels import (
     tp_push,
 )
 from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
-from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
+from thermogym.envs.kpis import _rainflow_tp, tp_finish, tp_update_at, wax_cycle_kpis
 from thermogym.errors import ConfigError
 from thermogym.models import axt211 as _ax
 from thermogym.models.axt211 import AXT211
@@ -710,8 +710,7 @@ class _ValveEngine(Engine):
             "switch_cycles": float(a[_A_SW]),
             "stroke_travel_mm": float(a[_A_TRAV]),
             "stroke_reversals": float(a[_A_TPX + 3]),
-            "wax_thermal_cycles": float(sum(c for _, c in cycles)),
-            "wax_damage": miner_damage(cycles),
+            **wax_cycle_kpis(cycles),
             "time_above_limit_h": float(a[_A_ABOVE] / 3600.0),
             "stroke_rmse_mm": float(math.sqrt(a[_A_SSE] / n)),
             "stroke_iae_mm_s": float(a[_A_IAE]),

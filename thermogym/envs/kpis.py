@@ -56,6 +56,15 @@ hysteresis (default 2 K) are ignored (endurance limit). Stated simplifications:
 no mean-temperature or dwell-time effect, no sequence effect (Miner), failure
 at ``D = 1``. ``D`` is therefore a relative lifetime consumption for comparing
 control strategies, not a calibrated life prediction.
+
+Since neither the exponent nor the endurance limit is known for a wax
+cartridge, :func:`wax_cycle_kpis` also returns the cycle count and the Miner
+sum under the other assumptions of :data:`SN_CUTOFFS_K` (cut-off ranges: a
+cycle with a smaller range, i.e. an amplitude under half of it, does no
+damage) and :data:`SN_EXPONENTS`, so that a report can show whether a ranking
+of controllers survives them (:func:`thermogym.controllers.tables.lifetime_rankings`).
+The heater's switching operations (``switch_cycles``) are a wear KPI of their
+own: they wear a relay's contacts, whatever the wax does.
 """
 
 from __future__ import annotations
@@ -75,6 +84,8 @@ __all__ = [
     "DAMAGE_EXPONENT",
     "DAMAGE_N_REF",
     "DAMAGE_RANGE_REF_K",
+    "SN_CUTOFFS_K",
+    "SN_EXPONENTS",
     "actuator_energy_Wh",
     "bearing_over_limit_Kh",
     "discomfort_Kh",
@@ -84,6 +95,7 @@ __all__ = [
     "miner_damage",
     "pwm_switch_cycles",
     "rainflow_cycles",
+    "sn_columns",
     "stroke_iae_mm_s",
     "stroke_reversals",
     "stroke_rmse_mm",
@@ -94,6 +106,7 @@ __all__ = [
     "tp_update",
     "tp_update_at",
     "turning_points",
+    "wax_cycle_kpis",
     "wax_damage",
     "wax_thermal_cycles",
 ]
@@ -104,6 +117,10 @@ DAMAGE_N_REF = 1.0e5
 DAMAGE_RANGE_REF_K = 50.0
 #: Exponent m of the S-N curve.
 DAMAGE_EXPONENT = 2.0
+#: Cut-off ranges [K] of the S-N variants (the first is the turning-point hysteresis).
+SN_CUTOFFS_K: tuple[float, ...] = (2.0, 5.0, 10.0, 20.0)
+#: Exponents m of the S-N variants.
+SN_EXPONENTS: tuple[float, ...] = (1.0, 2.0, 3.0, 4.0)
 
 
 def _series(x: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -444,6 +461,63 @@ def wax_damage(
     return miner_damage(
         rainflow_cycles(T_P_C, min_range_K), n_ref=n_ref, range_ref=range_ref_K, exponent=exponent
     )
+
+
+def sn_columns() -> dict[str, tuple[str, float, float | None]]:
+    """Names of the S-N variant KPIs: ``column → (kind, cut-off [K], exponent)``.
+
+    ``kind`` is ``"cycles"`` (rainflow count of the cycles at least the cut-off;
+    exponent None) or ``"damage"`` (Miner sum over them with that exponent).
+
+    Examples
+    --------
+    >>> cols = sn_columns()
+    >>> cols["wax_cycles_ge5K"], cols["wax_damage_m3_ge10K"]
+    (('cycles', 5.0, None), ('damage', 10.0, 3.0))
+    """
+    out: dict[str, tuple[str, float, float | None]] = {}
+    for c in SN_CUTOFFS_K:
+        out[f"wax_cycles_ge{c:g}K"] = ("cycles", c, None)
+        for m in SN_EXPONENTS:
+            out[f"wax_damage_m{m:g}_ge{c:g}K"] = ("damage", c, m)
+    return out
+
+
+def wax_cycle_kpis(cycles: Sequence[tuple[float, float]]) -> dict[str, float]:
+    """The wax KPIs of rainflow cycles: the defaults and every S-N variant.
+
+    Parameters
+    ----------
+    cycles : sequence of (range, count)
+        Rainflow cycles of the wax temperature (:func:`rainflow_cycles`).
+
+    Returns
+    -------
+    dict
+        ``wax_thermal_cycles`` and ``wax_damage`` (the module docstring's
+        defaults), then one value per :func:`sn_columns` name: the cycles whose
+        range is at least the cut-off, counted or summed by Miner with the
+        variant's exponent (``N_ref`` and ``ΔT_ref`` as the defaults).
+
+    Examples
+    --------
+    >>> k = wax_cycle_kpis([(50.0, 1.0), (4.0, 1.0), (4.0, 0.5)])
+    >>> k["wax_thermal_cycles"], k["wax_cycles_ge5K"]
+    (2.5, 1.0)
+    >>> k["wax_damage_m2_ge5K"] < k["wax_damage"] == k["wax_damage_m2_ge2K"]
+    True
+    """
+    out = {
+        "wax_thermal_cycles": float(sum(c for _, c in cycles)),
+        "wax_damage": miner_damage(cycles),
+    }
+    for name, (kind, cut, m) in sn_columns().items():
+        kept = [(r, c) for r, c in cycles if r >= cut]
+        if kind == "cycles":
+            out[name] = float(sum(c for _, c in kept))
+        else:
+            out[name] = miner_damage(kept, exponent=float(m))  # type: ignore[arg-type]
+    return out
 
 
 # ----------------------------------------------------------------- accuracy

@@ -44,8 +44,10 @@ What the rig has that the identified model lacks
 
 Every physical parameter has a manufacturing spread (:data:`AXT211_PARAMETERS`;
 paper 002 section VIII: "high standard deviation, originated mainly from wax
-cartridge manufacture"); specimens of one production date share a shift of the
-melting temperature and of the charge (:func:`specimen_spread`).
+cartridge manufacture"), except the convection exponent ``n_conv``, which is
+the law of laminar free convection and the same on every specimen; specimens
+of one production date share a shift of the melting temperature and of the
+charge (:func:`specimen_spread`).
 
 Nominal values were chosen (the paper publishes none) so that the plant shows
 what paper 002 states: at 24 V and 25 °C the valve starts to move when the
@@ -144,7 +146,7 @@ AXT211_PARAMETERS: tuple[PhysicalParameter, ...] = (
     _PP("w_ptc", 5.0, "K", "width of the PTC's switching step (ln R logistic)",
         "PTC datasheets: 10-25 %/K slope near T_ref", 0.10, "relative", "chosen", 1.0, 20.0),
     _PP("R_ratio", 1000.0, "1", "R_max / R_min of the PTC", "PTC datasheets: 10³-10⁴",
-        0.0, "relative", "", 10.0, 1e5),
+        0.25, "relative", "PTC datasheets: R_max is a minimum, pieces exceed it", 10.0, 1e5),
     _PP("a_ntc", 0.006, "1/K", "NTC slope below the PTC's minimum",
         "PTC datasheets: R_25 ≈ 1.2-1.4 R_min", 0.15, "relative", "chosen", 0.0, 0.05),
     _PP("R_src", 1.0, "Ohm", "supply source resistance (transformer + cable)",
@@ -185,13 +187,14 @@ AXT211_PARAMETERS: tuple[PhysicalParameter, ...] = (
         "relative", "installation", 0.005, 1.0),
     _PP("A_g", 0.0095, "m²", "housing surface", "AXT211 housing ~44 × 60 mm", 0.03,
         "relative", "moulding", 0.002, 0.05),
-    _PP("L_g", 0.06, "m", "housing height (convection length)", "AXT211 housing", 0.0,
-        "relative", "", 0.01, 0.5),
+    _PP("L_g", 0.06, "m", "housing height (convection length)", "AXT211 housing", 0.005,
+        "relative", "moulding and mounting height, ±0.3 mm", 0.01, 0.5),
     _PP("c_conv", 1.42, "W/(m^1.75 K^1.25)", "natural convection coefficient",
         "Holman, Heat Transfer: h = 1.42 (ΔT/L)^1/4, laminar vertical plate in air", 0.10,
         "relative", "air flow around the mounting", 0.3, 10.0),
     _PP("n_conv", 0.25, "1", "convection exponent (h ∝ ΔT^n)", "laminar natural convection",
-        0.0, "relative", "", 0.0, 1.0),
+        0.0, "relative", "a law of laminar free convection, not a property of a specimen",
+        0.0, 1.0),
     _PP("eps", 0.90, "1", "emissivity of the housing", "polymer surfaces 0.85-0.95", 0.02,
         "absolute", "surface", 0.1, 1.0),
     _PP("S_melt", 6.0, "mm", "stroke of the melting charge's volume growth",
@@ -218,8 +221,8 @@ AXT211_PARAMETERS: tuple[PhysicalParameter, ...] = (
     _PP("c_backlash", 0.10, "mm", "half-width of the play in the rod coupling",
         "paper 002 eq 20 (visible in Fig. 3)", 0.05, "uniform", "coupling tolerances", 0.0,
         1.0),
-    _PP("x_max", 4.5, "mm", "valve stroke (end stop)", "paper 002 V: 4.5 mm stroke", 0.0,
-        "relative", "", 1.0, 10.0),
+    _PP("x_max", 4.5, "mm", "valve stroke (end stop)", "paper 002 V: 4.5 mm stroke", 0.01,
+        "relative", "seat and stop positions of valve and adaptor, ±0.05 mm", 1.0, 10.0),
 )  # fmt: skip
 
 #: The rig's table (see the module docstring): physics the identified model lacks.

@@ -49,8 +49,14 @@ Protocol
 
 Sensors: room thermostat (NTC in a wall housing: 0.05 K white + 0.05 K
 coloured, 4 min lag, 0.1 K steps), outdoor sensor (0.2 K, 10 min lag in its
-shield), supply sensor (0.3 K, 1 min lag), heat meter (2 % coloured), the
-actuator's stroke (not measured in a real room; recorded for the rig).
+shield), both polled over the building bus, where a missed poll (about one
+every 10 h, 3 min on average) repeats the last value; supply and radiator
+contact sensors (0.3 and 0.2 K, 1 min and 30 s lag) with a 2 K spike about
+every 20 h (the boiler's igniter and the pump switching next to their cables);
+heat meter (2 % coloured) read over M-Bus, a failed read-out (one in 20 h,
+15 min) keeping the last value; the actuator's stroke (not measured in a real
+room; recorded for the rig). These rates are this rig's assumptions, not
+measured figures.
 """
 
 from __future__ import annotations
@@ -390,13 +396,22 @@ class RoomRig(Rig):
     plant_cls = RoomPlant
     sensors: ClassVar[dict[str, Sensor]] = {
         "T_zone": Sensor(0.05, 0.1, colored=0.05, colored_tau=3600.0, lag=240.0,
-                         source="room thermostat: NTC in a wall housing"),
+                         dropout_rate=0.1, dropout_s=180.0, dropout="hold",
+                         source="room thermostat: NTC in a wall housing, polled over the "
+                         "building bus (a missed poll repeats the last value)"),
         "T_out": Sensor(0.2, 0.1, colored=0.1, colored_tau=3600.0, lag=600.0,
-                        source="outdoor sensor in a radiation shield"),
-        "T_supply": Sensor(0.3, 0.1, lag=60.0, source="contact sensor on the supply pipe"),
-        "Q_heat": Sensor(5.0, 1.0, colored=10.0, colored_tau=7200.0, source="heat meter"),
+                        dropout_rate=0.1, dropout_s=180.0, dropout="hold",
+                        source="outdoor sensor in a radiation shield, on the same bus"),
+        "T_supply": Sensor(0.3, 0.1, lag=60.0, spike_rate=0.05, spike_size=2.0,
+                           source="contact sensor on the supply pipe; spikes when the "
+                           "boiler's igniter or the pump switches next to its cable"),
+        "Q_heat": Sensor(5.0, 1.0, colored=10.0, colored_tau=7200.0,
+                         dropout_rate=0.05, dropout_s=900.0, dropout="hold",
+                         source="heat meter read over M-Bus (a failed read-out keeps the "
+                         "last value)"),
         "x_V": Sensor(0.004, 0.001, source="LVDT (rig only)"),
-        "T_rad": Sensor(0.2, 0.1, lag=30.0, source="contact sensor on the radiator"),
+        "T_rad": Sensor(0.2, 0.1, lag=30.0, spike_rate=0.05, spike_size=2.0,
+                        source="contact sensor on the radiator; spikes as T_supply"),
     }  # fmt: skip
     supported_effects = RoomPlant.supported_effects
     effect_defaults = RoomPlant.effect_defaults

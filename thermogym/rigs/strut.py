@@ -140,7 +140,10 @@ Protocols
     sampling periods of section 4). As in the paper, the drive had not fully
     cooled down before the 25 m/min run (it starts 3 K above the air).
 
-Sensors: thermocouples σ = 0.05 K, resolution 0.01 K; the elongation by a
+Sensors: thermocouples σ = 0.05 K white + 0.03 K coloured (cold-junction wander,
+30 min), resolution 0.01 K, a 1 K spike about every 50 h (the servo drive's
+PWM) and a lost conversion about every 20 h, held for about 5 min by the
+logger; the elongation by a
 laser interferometer, σ = 0.5 µm (the paper notes it is costly to measure; the
 rig provides it as ground truth for compensation studies).
 
@@ -1131,8 +1134,12 @@ class StrutRig(Rig):
                 colored_tau=1800.0,
                 spike_rate=0.02,
                 spike_size=1.0,
+                dropout_rate=0.05,
+                dropout_s=300.0,
+                dropout="hold",
                 source="type K thermocouples, 16-bit logger: white noise, cold-junction "
-                "wander, rare spikes from the servo drive's PWM",
+                "wander, rare spikes from the servo drive's PWM, a conversion lost now "
+                "and then (the logger repeats its register)",
             )
             for k in TEMPERATURES
         },
