@@ -30,7 +30,11 @@ from numpy.typing import NDArray
 
 from thermogym._checks import integer
 from thermogym.errors import ConfigError, IdentificationError
-from thermogym.identification.crossval import cross_validate_order, split_recording
+from thermogym.identification.crossval import (
+    cross_validate_order,
+    deviation_recordings,
+    split_recording,
+)
 from thermogym.identification.n4sid import n4sid
 from thermogym.identification.pem import (
     PEMResult,
@@ -181,7 +185,11 @@ def ssest(
     cand_orders = [int(order)] if order is not None else list(orders)
     table = []
     for d in delays:
-        shifted = [delay_inputs(r, inputs, d) for r in recs]
+        # folds of deviation data: each part about its whole recording's operating point
+        # (a part cut from a TCLab run does not start at rest), the folds of pem()
+        shifted = deviation_recordings(
+            [delay_inputs(r, inputs, d) for r in recs], inputs, outputs, operating_point_mode
+        )
         fl = (
             [[p] for p in split_recording(shifted[0], folds)]
             if len(shifted) == 1
@@ -201,6 +209,7 @@ def ssest(
                     operating_point_mode=operating_point_mode,
                     decimate=decimate,
                     tolerance=tolerance,
+                    deviations=True,
                 )
             except (IdentificationError, ConfigError, np.linalg.LinAlgError) as e:
                 table.append({"delay": d, "feedthrough": ft, "error": str(e)})
@@ -364,7 +373,7 @@ def identify_auto(
             else:
                 r = sopdt(recs, inputs, outputs, **common)
                 structure = "K, T1, T2, tau per pair"
-                va = _cv_score(fd, _sopdt_fold(prob, operating_point_mode), prob.dt)[0]
+                va = _cv_score(fd, _sopdt_fold(prob), prob.dt)[0]
         except (IdentificationError, ConfigError, np.linalg.LinAlgError) as e:
             scores[fam] = {"error": str(e)}
             continue
@@ -398,7 +407,7 @@ def identify_auto(
 
 def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
     """Fold fitter of a fixed state-space structure (order, feedthrough, delay)."""
-    from thermogym.identification.pem import _Data, _solve
+    from thermogym.identification.pem import _Data, _offset, _solve
 
     def fit(us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]]) -> Any:
         from thermogym.identification.n4sid import n4sid_decompose
@@ -422,7 +431,7 @@ def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
                 m,
                 m.nominal,
                 np.arange(m.nominal.size),
-                _Data(us_d, ys, prob.dt),
+                _Data(us_d, ys, prob.dt, _offset(prob.mode)),
                 "simulation",
                 max_nfev=40,
             )
@@ -442,26 +451,12 @@ def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
     return fit
 
 
-def _sopdt_fold(prob: Any, mode: str) -> Any:
+def _sopdt_fold(prob: Any) -> Any:
+    """Fold fitter of SOPDT on fold deviation data (the problem's operating-point mode kept)."""
+    from thermogym.identification.pem import _sopdt_fit, _sub_problem
+
     def fit(us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]]) -> Any:
-        names = prob.inputs + prob.disturbances
-        recs = []
-        for k, (u, y) in enumerate(zip(us, ys, strict=True)):
-            cols = {c: u[:, i] for i, c in enumerate(names)}
-            cols.update({c: y[:, j] for j, c in enumerate(prob.outputs)})
-            roles = {c: "disturbance" for c in prob.disturbances}
-            recs.append(
-                Recording(
-                    prob.dt * np.arange(u.shape[0]), cols, roles=roles, experiment_id=f"fold{k}"
-                )
-            )
-        r = sopdt(
-            recs,
-            names,
-            prob.outputs,
-            disturbances=prob.disturbances,
-            operating_point_mode="none",  # fold data are deviations already
-        )
-        return r.model, r.theta
+        model, th, _, _ = _sopdt_fit(_sub_problem(prob, us, ys), None, 100)
+        return model, th[None]
 
     return fit
