@@ -1,0 +1,148 @@
+"""Issue 16 audit: every linear family through every path, and the warnings of the PEM commands.
+
+A plant known exactly (a first-order discrete lag sitting at 20 °C, started at
+rest) is identified by the polynomial and SOPDT families; simulate, compare
+and the Python prediction must then agree with each other and with the
+plant, about the fit's operating point. The prediction-error commands must
+warn, as the FOPTD and N4SID ones do, on cases made to trigger each warning.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from thermogym.cli import main as cli_main
+from thermogym.fitresult import FitResult
+from thermogym.identification.advice import structure_warnings
+from thermogym.identification.compare import compare
+from thermogym.identification.linear_fit import predict
+from thermogym.identification.metrics import nrmse
+from thermogym.models.process import SOPDTModel
+from thermogym.recording import Recording, read_recording, write_recording
+
+Y_REST = 20.0  # °C: the plant's output at rest
+
+
+def lag_recording(
+    seed: int, n: int = 300, delay: int = 1, y_start: float = 0.0, gain_sign: float = 1.0
+) -> Recording:
+    """``y = 20 + 0.5 q^-delay / (1 − 0.9 q^-1) u``, heater steps from 0 W, noise-free.
+
+    ``y_start`` adds an initial deviation decaying with the plant's pole (a
+    record that does not start at rest).
+    """
+    rng = np.random.default_rng(seed)
+    u = np.r_[0.0, np.repeat(rng.uniform(0.0, 10.0, n // 20), 20)][:n]
+    b = np.r_[np.zeros(delay), 0.5 * gain_sign]
+    y = Y_REST + lfilter(b, [1.0, -0.9], u) + y_start * 0.9 ** np.arange(n)
+    return Recording(
+        np.arange(float(n)),
+        {"P": u, "T": y},
+        units={"P": "W", "T": "°C"},
+        roles={"P": "input", "T": "output"},
+        experiment_id=f"lag{seed}",
+    )
+
+
+def identify(tmp_path, method: str, rec: Recording, *extra: str) -> FitResult:
+    write_recording(rec, tmp_path / "train.csv")
+    out = tmp_path / f"{method}.json"
+    argv = ["identify", method, str(tmp_path / "train.csv"), "--inputs", "P", "--outputs", "T"]
+    assert cli_main([*argv, "--out", str(out), *extra]) == 0
+    return FitResult.load(out)
+
+
+@pytest.mark.parametrize(
+    ("method", "orders"),
+    [
+        ("arx", ["--na", "1", "--nb", "1", "--nk", "1"]),
+        ("oe", ["--nb", "1", "--nf", "1", "--nk", "1"]),
+        ("sopdt", []),
+    ],
+)
+def test_every_linear_family_is_simulated_about_its_operating_point(tmp_path, capsys, method,
+                                                                    orders):  # fmt: skip
+    fit = identify(tmp_path, method, lag_recording(1), "--operating-point", "rest", *orders)
+    assert fit.settings["operating_point"]["outputs"]["T"] == pytest.approx(Y_REST)
+    rec = lag_recording(2)  # a new run of the plant, from rest
+    write_recording(rec, tmp_path / "new.csv")
+    tol = 0.02 if method != "sopdt" else 0.5  # the polynomials are the plant exactly
+    for x0 in ("estimate", "steady", "zero"):
+        ref = predict(fit, rec, x0=x0).outputs[:, 0]
+        sim_path = tmp_path / f"sim_{x0}.csv"
+        argv = ["simulate", "--params", str(tmp_path / f"{method}.json"), "--inputs",
+                str(tmp_path / "new.csv"), "--out", str(sim_path), "--x0", x0]  # fmt: skip
+        assert cli_main(argv) == 0
+        assert f"initial state: {x0}" in capsys.readouterr().out
+        np.testing.assert_allclose(read_recording(sim_path)["T"], ref, atol=1e-9)
+        cmp = compare([fit], rec, x0=x0)
+        np.testing.assert_allclose(cmp.models[0].outputs["T"], ref, atol=1e-9)
+        # about 20 °C, not about zero: the plant itself
+        assert np.abs(ref - rec["T"]).max() < tol
+    # a run that starts 4 K above rest, about the fit's operating point: the estimated
+    # initial state follows the start, zero starts at rest
+    away = lag_recording(3, y_start=4.0)
+    est = predict(fit, away, x0="estimate", operating="fit").outputs[:, 0]
+    zero = predict(fit, away, x0="zero", operating="fit").outputs[:, 0]
+    assert zero[0] == pytest.approx(Y_REST, abs=1e-9) and abs(est[0] - away["T"][0]) < 0.5
+    if method != "sopdt":
+        assert nrmse(away["T"], est) > 0.999 > nrmse(away["T"], zero)
+
+
+def codes(fit: FitResult) -> set[str]:
+    return {w["code"] for w in fit.warnings}
+
+
+def test_pem_commands_warn_about_a_delay_at_the_edge_and_a_flat_curve(tmp_path, capsys):
+    # true delay 4 samples, only 0..2 searched: the delay is at the edge
+    fit = identify(tmp_path, "arx", lag_recording(3, delay=4), "--operating-point", "rest",
+                   "--max-delay", "2", "--max-order", "1")  # fmt: skip
+    assert codes(fit) == {"order_at_edge"}
+    assert "delay 2 samples is the largest searched (0..2)" in capsys.readouterr().err
+    # searched wide enough: the true delay, no warning
+    fit = identify(tmp_path, "arx", lag_recording(3, delay=4), "--operating-point", "rest",
+                   "--max-delay", "6", "--max-order", "1")  # fmt: skip
+    assert fit.settings["orders"]["nk"] == [[4]] and codes(fit) == set()
+    # every ARX order from 1 fits the noise-free first-order plant: a flat curve, order 1
+    fit = identify(tmp_path, "arx", lag_recording(3), "--operating-point", "rest",
+                   "--max-delay", "3", "--max-order", "4")  # fmt: skip
+    assert codes(fit) == {"flat_cv"} and fit.settings["orders"]["na"] == [1]
+    assert "the cross-validation curve is flat" in capsys.readouterr().err
+
+
+def test_pem_commands_warn_about_a_gain_against_the_physics(tmp_path, capsys):
+    # a "heater" whose data say it cools: the units (W on °C) say it must heat
+    fit = identify(tmp_path, "oe", lag_recording(4, gain_sign=-1.0), "--operating-point",
+                   "rest", "--nb", "1", "--nf", "1", "--nk", "1")  # fmt: skip
+    assert codes(fit) == {"gain_sign"}
+    assert "must be positive" in capsys.readouterr().err
+    # declared the other way round: no warning
+    oe = ["--nb", "1", "--nf", "1", "--nk", "1", "--operating-point", "rest"]
+    fit = identify(tmp_path, "oe", lag_recording(4, gain_sign=-1.0), *oe, "--expect-sign", "P=-")
+    assert "gain_sign" not in codes(fit)
+
+
+def test_pem_commands_warn_when_the_cross_validated_fit_is_below_zero(tmp_path, capsys):
+    # the heater's gain changes sign halfway: a model of either half predicts the other
+    # worse than its mean
+    up, down = lag_recording(5, n=200), lag_recording(6, n=200, gain_sign=-1.0)
+    rec = Recording(np.arange(400.0), {c: np.r_[up[c], down[c]] for c in ("P", "T")},
+                    units=dict(up.units), roles=dict(up.roles), experiment_id="flip")  # fmt: skip
+    fit = identify(tmp_path, "arx", rec, "--operating-point", "rest", "--max-order", "2",
+                   "--max-delay", "2", "--expect-sign", "none")  # fmt: skip
+    assert "fit_below_zero" in codes(fit)  # (the search's edges are warned about too)
+    assert "cross-validated fit of the chosen orders is -" in capsys.readouterr().err
+
+
+def test_sopdt_structure_warnings_on_made_fits():
+    model = SOPDTModel(["P"], ["T"], K=0.5, T1=5.0e4, T2=10.0, tau=30.0)
+    fit = FitResult.from_model(model, method="sopdt", settings={"max_delay_s": 30.0})
+    w = structure_warnings(fit, record_s=1000.0)
+    assert {x.code for x in w} == {"order_at_edge", "time_constant_bound"}
+    assert any("T1_T" in x.message for x in w) and any("tau_T" in x.message for x in w)
+    # a settled record and a delay inside its range: nothing
+    model = SOPDTModel(["P"], ["T"], K=0.5, T1=50.0, T2=10.0, tau=3.0)
+    fit = FitResult.from_model(model, method="sopdt", settings={"max_delay_s": 30.0})
+    assert structure_warnings(fit, record_s=1000.0) == []
