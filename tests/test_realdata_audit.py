@@ -146,3 +146,26 @@ def test_sopdt_structure_warnings_on_made_fits():
     model = SOPDTModel(["P"], ["T"], K=0.5, T1=50.0, T2=10.0, tau=3.0)
     fit = FitResult.from_model(model, method="sopdt", settings={"max_delay_s": 30.0})
     assert structure_warnings(fit, record_s=1000.0) == []
+
+
+def test_n4sid_about_the_rest_judges_each_fold_about_its_recordings_rest(tmp_path, capsys):
+    # the second half of a run that starts at rest does not itself start at rest: judged
+    # about its own first sample the exact first-order model would look poor
+    rec = lag_recording(7, n=400)
+    fit = identify(tmp_path, "n4sid", rec, "--operating-point", "rest", "--folds", "2",
+                   "--orders", "1:3", "--decimate", "1")  # fmt: skip
+    assert fit.settings["operating_point"]["mode"] == "rest"
+    assert fit.settings["operating_point"]["outputs"]["T"] == pytest.approx(Y_REST)
+    cv = fit.settings["cross_validation"]
+    assert cv["parsimonious_order"] == 1 and min(cv["VA"]) > 0.99
+    assert fit.metrics["train"]["mnrmse"] > 0.999
+
+
+def test_n4sid_warns_when_the_cross_validated_fit_is_below_zero(tmp_path, capsys):
+    up, down = lag_recording(5, n=200), lag_recording(6, n=200, gain_sign=-1.0)
+    rec = Recording(np.arange(400.0), {c: np.r_[up[c], down[c]] for c in ("P", "T")},
+                    units=dict(up.units), roles=dict(up.roles), experiment_id="flip")  # fmt: skip
+    fit = identify(tmp_path, "n4sid", rec, "--operating-point", "rest", "--folds", "2",
+                   "--orders", "1:2", "--decimate", "1", "--expect-sign", "none")  # fmt: skip
+    assert "fit_below_zero" in codes(fit)
+    assert "cross-validated fit of the chosen order is -" in capsys.readouterr().err

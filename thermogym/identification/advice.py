@@ -47,6 +47,7 @@ __all__ = [
     "CODES",
     "DEFAULT_TOLERANCE",
     "FitWarning",
+    "check_cv_score",
     "check_fit",
     "check_gain_signs",
     "check_metrics",
@@ -418,8 +419,16 @@ def check_fit(
     return out
 
 
-def _cv_below_zero(score: Any, what: str) -> list[FitWarning]:
-    if isinstance(score, int | float) and math.isfinite(score) and score < 0:
+def check_cv_score(score: Any, what: str) -> list[FitWarning]:
+    """``fit_below_zero`` when the cross-validated fit of the chosen ``what`` is below zero.
+
+    Examples
+    --------
+    >>> [w.code for w in check_cv_score(-0.12, "order")], check_cv_score(0.8, "order")
+    (['fit_below_zero'], [])
+    """
+    score = float(score) if isinstance(score, int | float | np.floating) else score
+    if isinstance(score, float) and math.isfinite(score) and score < 0:
         return [
             FitWarning(
                 "fit_below_zero",
@@ -474,13 +483,13 @@ def structure_warnings(
     if isinstance(auto, Mapping):
         chosen = auto.get("chosen")
         fam = (auto.get("families") or {}).get(chosen, {})
-        out += _cv_below_zero(fam.get("cv_mnrmse"), f"model family ({chosen})")
+        out += check_cv_score(fam.get("cv_mnrmse"), f"model family ({chosen})")
     cv = st.get("cross_validation")
     if isinstance(cv, Mapping) and cv.get("order_scores"):
         scores = np.asarray(cv["order_scores"], dtype=float)
         chosen_n = int(cv.get("chosen_order", parsimonious_index(scores)))
         if not isinstance(auto, Mapping):
-            out += _cv_below_zero(float(scores[chosen_n - 1]), "orders")
+            out += check_cv_score(float(scores[chosen_n - 1]), "orders")
         out += check_order(
             range(1, scores.size + 1),
             scores,
@@ -514,7 +523,7 @@ def structure_warnings(
             o = list(orders) if orders is not None else list(range(1, curve.size + 1))
             if len(o) == curve.size:
                 if not isinstance(auto, Mapping):
-                    out += _cv_below_zero(float(np.nanmax(curve)), "state-space structure")
+                    out += check_cv_score(float(np.nanmax(curve)), "state-space structure")
                 out += check_order(o, curve, int(st.get("order", o[0])))
         delays = sorted({int(r["delay"]) for r in table if "delay" in r})
         if len(delays) > 1 and d is not None and int(d) == delays[-1]:
