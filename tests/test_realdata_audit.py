@@ -9,6 +9,8 @@ warn, as the FOPTD and N4SID ones do, on cases made to trigger each warning.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from scipy.signal import lfilter
@@ -169,3 +171,30 @@ def test_n4sid_warns_when_the_cross_validated_fit_is_below_zero(tmp_path, capsys
                    "--orders", "1:2", "--decimate", "1", "--expect-sign", "none")  # fmt: skip
     assert "fit_below_zero" in codes(fit)
     assert "cross-validated fit of the chosen order is -" in capsys.readouterr().err
+
+
+def readme_dataset_commands() -> list[str]:
+    """The example commands of the README's table of shipped real data sets."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = text.split("### Shipped real data sets", 1)[1].split("###", 1)[0]
+    return re.findall(r"`thermogym (identify [^`]+)`", block)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", readme_dataset_commands())
+def test_readme_dataset_commands_run_and_validate(tmp_path, capsys, command):
+    import shlex
+
+    argv = [a.replace("fits/", f"{tmp_path}/") for a in shlex.split(command)]
+    assert cli_main(argv) == 0
+    fit = FitResult.load(argv[argv.index("--out") + 1])
+    assert fit.metrics["train"]["mnrmse"] > 0 and "fit_below_zero" not in codes(fit)
+    if "--validate" in argv:  # the TCLab rows: from rest, as the README says, not the mean
+        assert fit.settings["operating_point"]["mode"] == "rest"
+        i = argv.index("--operating-point") + 1
+        assert cli_main([*argv[:i], "mean", *argv[i + 1 :]]) == 0
+        mean = FitResult.load(argv[argv.index("--out") + 1])
+        gain = fit.metrics["validation"]["mnrmse"] - mean.metrics["validation"]["mnrmse"]
+        assert gain > 0.05
