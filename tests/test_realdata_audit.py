@@ -198,3 +198,50 @@ def test_readme_dataset_commands_run_and_validate(tmp_path, capsys, command):
         mean = FitResult.load(argv[argv.index("--out") + 1])
         gain = fit.metrics["validation"]["mnrmse"] - mean.metrics["validation"]["mnrmse"]
         assert gain > 0.05
+
+
+def test_identified_plant_env_from_an_n4sid_fit_reproduces_the_plants_step_response(tmp_path):
+    import gymnasium as gym
+
+    from thermogym.models.linear import StateSpaceModel
+
+    A = np.array([[0.95, 0.03], [0.0, 0.8]])
+    B = np.array([[0.05], [0.2]])
+    C = np.array([[1.0, 0.0], [0.3, 1.0]])
+    true = StateSpaceModel.from_matrices(A, B, C, dt=10.0, y_op=[Y_REST, 25.0])
+    rng = np.random.default_rng(8)
+    u = np.r_[0.0, np.repeat(rng.uniform(0.0, 10.0, 40), 20)][:800]
+    y = true.simulate(u[:, None], 10.0).outputs[0]
+    rec = Recording(10.0 * np.arange(800), {"P": u, "T1": y[:, 0], "T2": y[:, 1]},
+                    units={"P": "W", "T1": "°C", "T2": "°C"})  # fmt: skip
+    write_recording(rec, tmp_path / "run.csv")
+    out = tmp_path / "ss.json"
+    argv = ["identify", "n4sid", str(tmp_path / "run.csv"), "--inputs", "P", "--outputs",
+            "T1,T2", "--order", "2", "--decimate", "1", "--operating-point", "rest",
+            "--out", str(out)]  # fmt: skip
+    assert cli_main(argv) == 0
+    fit = FitResult.load(out)
+    lo, hi = fit.settings["signal_ranges"]["P"]  # recorded: the env scales by them
+    assert lo == 0.0 and hi == pytest.approx(u.max())
+    env = gym.make("thermogym/IdentifiedPlant-v0", params=str(out), episode_steps=200)
+    env.reset(seed=0)
+    got = []
+    for _ in range(150):
+        env.step(np.ones(1, dtype=np.float32))  # the top of the recorded range
+        got.append([env.unwrapped.true_outputs()[c] for c in ("T1", "T2")])
+    step = true.simulate(np.full((151, 1), hi), 10.0).outputs[0][1:]  # from rest
+    np.testing.assert_allclose(got, step, atol=1e-3)
+
+
+@pytest.mark.parametrize("method", ["foptd", "sopdt", "n4sid"])
+def test_every_identify_method_gives_a_fit_the_env_takes_as_it_is(tmp_path, method):
+    import gymnasium as gym
+    from gymnasium.utils.env_checker import check_env
+
+    extra = ["--order", "1", "--decimate", "1"] if method == "n4sid" else []
+    fit = identify(tmp_path, method, lag_recording(9), "--operating-point", "rest", *extra)
+    lo, hi = fit.settings["signal_ranges"]["P"]
+    assert lo == 0.0 and hi > 5.0
+    env = gym.make("thermogym/IdentifiedPlant-v0", params=fit)  # no range, no period given
+    check_env(env.unwrapped)
+    assert env.unwrapped.dt == pytest.approx(1.0)  # the recording's period

@@ -1263,6 +1263,10 @@ def system_fitresult(
         "inputs": {c: float(u_op[k]) for k, c in enumerate(exo)},
         "outputs": {c: float(y_op[k]) for k, c in enumerate(prob.outputs)},
     }
+    if prob.recordings:  # the recorded ranges: what IdentifiedPlant-v0 scales by
+        from thermogym.identification.pem import signal_ranges  # pem imports this module
+
+        st.setdefault("signal_ranges", signal_ranges(prob.recordings, exo + prob.outputs))
     # the model itself carries the operating point: every simulation path applies it
     model = StateSpaceModel(**{**model.config(), "u_op": u_op.tolist(), "y_op": y_op.tolist()})
     arr = {

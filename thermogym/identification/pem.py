@@ -1087,6 +1087,7 @@ def sopdt(
     vals = [validate] if isinstance(validate, Recording) else list(validate)
     final, th, cov, info = _sopdt_fit(prob, max_delay_s, max_nfev)
     settings = {
+        "dt": prob.dt,  # the training period: the default period of the realisation
         "operating_point_mode": operating_point_mode,
         "focus": "simulation",
         **info,
