@@ -245,3 +245,26 @@ def test_every_identify_method_gives_a_fit_the_env_takes_as_it_is(tmp_path, meth
     env = gym.make("thermogym/IdentifiedPlant-v0", params=fit)  # no range, no period given
     check_env(env.unwrapped)
     assert env.unwrapped.dt == pytest.approx(1.0)  # the recording's period
+
+
+@pytest.mark.parametrize(
+    ("method", "extra", "match"),
+    [
+        ("auto", ["--families", "arx,foo"], "--families 'arx,foo'"),
+        ("auto", ["--families", ","], "--families"),
+        ("arx", ["--expect-sign", "P=up"], "--expect-sign 'P=up'"),
+        ("sopdt", ["--expect-sign", "P:T:x=+"], "--expect-sign"),
+        ("ssest", ["--orders", "0:3"], "--orders '0:3'"),
+        ("ssest", ["--input-delay", "1,2"], "--input-delay"),
+        ("n4sid", ["--operating-point", "bogus"], "--operating-point"),
+        ("oe", ["--max-delay", "-1"], "--max-delay"),
+    ],
+)
+def test_bad_values_of_the_new_options_are_named(tmp_path, capsys, method, extra, match):
+    write_recording(lag_recording(10, n=100), tmp_path / "run.csv")
+    argv = ["identify", method, str(tmp_path / "run.csv"), "--inputs", "P", "--outputs", "T",
+            "--out", str(tmp_path / "fit.json"), *extra]  # fmt: skip
+    assert cli_main(argv) == 2
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1
+    assert not (tmp_path / "fit.json").exists()

@@ -207,6 +207,16 @@ def main(method: str, argv: list[str]) -> int:
     args = build_parser(method).parse_args(hoist_recordings(argv))
     args.command = "identify"
     args.expect = parse_expect_sign(args.expect_sign)  # refused early
+    if method == "auto":
+        from thermogym.identification.ssest import AUTO_FAMILIES
+
+        known = (*AUTO_FAMILIES, "armax", "bj")
+        fams = [f.strip() for f in args.families.split(",") if f.strip()]
+        if not fams or any(f not in known for f in fams):
+            raise ConfigError(
+                f"--families {args.families!r}: expected a comma-separated list from "
+                f"{sorted(set(known))}"
+            )
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
     plan = plan_outputs(
@@ -311,18 +321,27 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             folds=args.folds,
             max_order=args.max_order,
             max_delay=args.max_delay,
+            expect=args.expect,
             **common,
         )
         auto = res.fit.settings["auto"]
         print(
-            f"auto in {res.seconds:.1f} s: chose {auto['chosen']} by {args.folds}-fold "
-            "cross-validation on the training data"
+            f"auto in {res.seconds:.1f} s: chose {auto['chosen']}, the best cross-validated "
+            f"fit on the training data ({args.folds} parts and {auto['kfold_blocks'] or 'no'} "
+            "k-fold blocks) among the stable families whose gains agree with the physics"
         )
         for fam, s in auto["families"].items():
             if "cv_mnrmse" in s:
-                print(f"  {fam:<6} CV MNRMSE {100 * s['cv_mnrmse']:7.2f} %   {s['structure']}")
+                why = [] if s["stable"] else [f"unstable: pole {s['max_abs_eigenvalue']:.4g}"]
+                why += ["gain sign"] if s["gain_sign"] else []
+                print(
+                    f"  {fam:<6} CV MNRMSE {100 * s['cv_mnrmse']:7.2f} %   {s['structure']}"
+                    + (f"   not admissible ({'; '.join(why)})" if why else "")
+                )
             else:
                 print(f"  {fam:<6} failed: {s['error']}")
+        if auto.get("note"):
+            print(f"  note: {auto['note']}")
     fit = res.fit
     if op != args.operating_point:
         fit.settings["operating_point_choice"] = {"mode": op, "rule": "ARX cross-validation"}
