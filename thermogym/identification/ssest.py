@@ -21,8 +21,9 @@
 
 from __future__ import annotations
 
+import itertools
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -30,6 +31,7 @@ from numpy.typing import NDArray
 
 from thermogym._checks import integer
 from thermogym.errors import ConfigError, IdentificationError
+from thermogym.identification.advice import check_fit
 from thermogym.identification.crossval import (
     cross_validate_order,
     deviation_recordings,
@@ -43,6 +45,7 @@ from thermogym.identification.pem import (
     _problem,
     pem,
     refine,
+    simulation_fit,
     sopdt,
 )
 from thermogym.models.linear import StateSpaceModel
@@ -301,15 +304,34 @@ def identify_auto(
     disturbances: Sequence[str] | None = None,
     operating_point_mode: str = "mean",
     validate: Recording | Sequence[Recording] = (),
+    expect: Mapping[str, int] | None = None,
 ) -> PEMResult:
     """The model family with the best cross-validated simulation fit, refitted on all data.
 
-    Every family in ``families`` gets its structure by cross-validation on the
-    training data (:func:`~thermogym.identification.pem.pem`, :func:`ssest`,
-    :func:`~thermogym.identification.pem.sopdt`); the structures are then
-    compared on the same folds by the mean simulation fit of the model trained
-    on one fold on the others (MNRMSE, initial state estimated). Ties within
-    0.1 % go to the earlier family in ``families`` (the simpler).
+    1. Every family in ``families`` gets its structure by ``folds``-fold
+       cross-validation on the training data
+       (:func:`~thermogym.identification.pem.pem`, :func:`ssest`,
+       :func:`~thermogym.identification.pem.sopdt`) and is refitted on all of
+       it.
+    2. The structures are compared by their mean simulation fit (MNRMSE,
+       initial state estimated) over two partitions of the training data: the
+       ``folds`` parts of step 1 (a model trained on one part, tested on each
+       other), and ``max(3, folds)`` contiguous blocks (a model trained on all
+       blocks but one, tested on that one; the usual k-fold). The second
+       trains on more of the data, as the final model is, and a second
+       partition halves the luck of one cut; on short records the two rank the
+       families differently (TCLab MIMO, 200 samples: the halves alone put the
+       state space above SOPDT, 72 % against 70 %, the held-out runs 82 %
+       against 91 %).
+    3. A structure is *admissible* when its model trained on all the data is
+       stable (every pole inside the unit circle: a thermal plant's is, and a
+       simulation-focused fit should be, as MATLAB enforces) and no
+       steady-state gain contradicts the declared physics
+       (:func:`~thermogym.identification.advice.expected_signs`: units, names,
+       ``expect``). The best admissible family is chosen; ties within 0.1 %
+       go to the earlier family in ``families`` (the simpler). Only when no
+       family is admissible is the best of all chosen (``settings["auto"]
+       ["note"]`` says so). Nothing here looks at validation data.
 
     Parameters
     ----------
@@ -322,12 +344,15 @@ def identify_auto(
         Largest ARX order tried.
     iterative_max_order : int
         Largest order of the iteratively fitted families (ARMAX, OE, BJ).
+    expect : mapping, optional
+        Declared gain signs (:func:`~thermogym.identification.advice.parse_expect_sign`).
 
     Returns
     -------
     PEMResult
         The chosen family's result; ``settings["auto"]`` lists every
-        family's cross-validated score and structure.
+        family's cross-validated scores (``cv_mnrmse``, the mean;
+        ``cv_parts``, ``cv_kfold``), structure and admissibility.
     """
     t0 = time.perf_counter()
     known = ("arx", "armax", "oe", "bj", "sopdt", "ssest")
@@ -341,6 +366,7 @@ def identify_auto(
     outputs = [outputs] if isinstance(outputs, str) else list(outputs)
     prob = _problem(recs, inputs, outputs, disturbances, operating_point_mode)
     fd = _fold_problems(prob, folds)
+    blocks = _complement_folds(prob, max(3, int(folds)))
     scores: dict[str, Any] = {}
     results: dict[str, PEMResult] = {}
     common = {"disturbances": disturbances, "operating_point_mode": operating_point_mode}
@@ -359,8 +385,8 @@ def identify_auto(
                     folds=folds,
                     **common,
                 )
-                va = r.selection["order_scores"][r.selection["chosen_order"] - 1]
                 structure: Any = r.fit.settings["orders"]
+                fitter = _poly_fold(prob, fam, structure, r.fit.settings["focus"])
             elif fam == "ssest":
                 r = ssest(recs, inputs, outputs, folds=folds, **common)
                 st = r.fit.settings
@@ -369,15 +395,33 @@ def identify_auto(
                     "feedthrough": st["feedthrough"],
                     "input_delay": st["input_delay"],
                 }
-                va = _cv_score(fd, _ssest_fold(prob, st), prob.dt)[0]
+                fitter = _ssest_fold(prob, st)
             else:
                 r = sopdt(recs, inputs, outputs, **common)
                 structure = "K, T1, T2, tau per pair"
-                va = _cv_score(fd, _sopdt_fold(prob), prob.dt)[0]
+                fitter = _sopdt_fold(prob)
+            s_parts = _cv_score(fd, fitter, prob.dt)[0]
+            s_k = _kfold_score(blocks, fitter, prob.dt) if blocks else None
         except (IdentificationError, ConfigError, np.linalg.LinAlgError) as e:
             scores[fam] = {"error": str(e)}
             continue
-        scores[fam] = {"cv_mnrmse": float(va), "structure": structure}
+        parts = [v for v in (s_parts, s_k) if v is not None]
+        radius = _spectral_radius(r.model, r.theta, prob.dt)
+        signs = [
+            w.message
+            for w in check_fit(r.fit, units=prob.units, expect=expect)
+            if w.code == "gain_sign"
+        ]
+        scores[fam] = {
+            "cv_mnrmse": float(np.mean(parts)),
+            "cv_parts": float(s_parts),
+            "cv_kfold": None if s_k is None else float(s_k),
+            "structure": structure,
+            "max_abs_eigenvalue": radius,
+            "stable": bool(radius < 1.0),
+            "gain_sign": signs,
+            "admissible": bool(radius < 1.0 and not signs),
+        }
         results[fam] = r
     ok = {
         f: s["cv_mnrmse"]
@@ -386,8 +430,16 @@ def identify_auto(
     }
     if not ok:
         raise IdentificationError(f"no model family could be identified: {scores}")
-    top = max(ok.values())
-    best = next(f for f in families if f in ok and ok[f] >= top - 1e-3)
+    pool = {f: v for f, v in ok.items() if scores[f]["admissible"]}
+    note = None
+    if not pool:
+        pool = ok
+        note = (
+            "no family gave a stable model whose gains agree with the declared physics; "
+            "chose the best cross-validated one regardless"
+        )
+    top = max(pool.values())
+    best = next(f for f in families if f in pool and pool[f] >= top - 1e-3)
     res = results[best]
     fit = res.fit
     vals = [validate] if isinstance(validate, Recording) else list(validate)
@@ -400,9 +452,83 @@ def identify_auto(
         "families": scores,
         "chosen": best,
         "folds": folds,
+        "kfold_blocks": len(blocks) if blocks else None,
+        "rule": "best mean cross-validated fit (the folds' parts and k-fold blocks) among "
+        "the stable families whose gains agree with the declared physics",
         "seconds": time.perf_counter() - t0,
     }
+    if note:
+        fit.settings["auto"]["note"] = note
     return PEMResult(fit, res.model, res.theta, time.perf_counter() - t0, scores)
+
+
+def _complement_folds(prob: Any, k: int) -> list[tuple[list[Any], list[Any], list[Any], list[Any]]]:
+    """k-fold blocks of deviation data: (train us, train ys, test us, test ys) per block.
+
+    Several recordings (at least ``k``) are dealt round robin; one recording
+    is cut into ``k`` contiguous blocks and each block's training data are
+    the rest of the recording (before and after the block: one or two
+    experiments). Empty when neither applies (two to ``k − 1`` recordings).
+    """
+    us, ys = prob.us, prob.ys
+    out = []
+    if len(us) >= k:
+        for i in range(k):
+            tr = [j for j in range(len(us)) if j % k != i]
+            te = [j for j in range(len(us)) if j % k == i]
+            out.append(([us[j] for j in tr], [ys[j] for j in tr], [us[j] for j in te],
+                        [ys[j] for j in te]))  # fmt: skip
+        return out
+    if len(us) != 1:
+        return []
+    T = us[0].shape[0]
+    edges = np.linspace(0, T, k + 1).round().astype(int)
+    u, y = us[0], ys[0]
+    for a, b in itertools.pairwise(edges):
+        segs = [(0, a), (b, T)]
+        tu = [u[s:e] for s, e in segs if e > s]
+        ty = [y[s:e] for s, e in segs if e > s]
+        out.append((tu, ty, [u[a:b]], [y[a:b]]))
+    return out
+
+
+def _kfold_score(blocks: Any, fit_fn: Any, dt: float) -> float:
+    """Mean simulation fit of each block under the model trained on the others."""
+    scores = []
+    for tu, ty, vu, vy in blocks:
+        try:
+            model, theta = fit_fn(tu, ty)
+        except (IdentificationError, np.linalg.LinAlgError, ValueError):
+            return -np.inf
+        scores.append(simulation_fit(model, theta, vu, vy, dt)[0])
+    return float(np.mean(scores))
+
+
+def _spectral_radius(model: Any, theta: NDArray[np.float64], dt: float) -> float:
+    """Largest pole magnitude of a linear model's discrete realisation at ``dt``."""
+    from thermogym.identification.pem import _as_ss
+
+    try:
+        A = _as_ss(model, np.atleast_2d(theta), dt).matrices().A[0]
+    except Exception:  # a model that cannot be realised is not admissible
+        return float("inf")
+    if A.size == 0:
+        return 0.0
+    return float(np.max(np.abs(np.linalg.eigvals(A))))
+
+
+def _poly_fold(prob: Any, family: str, orders: Mapping[str, Any], focus: str) -> Any:
+    """Fold fitter of a polynomial family with fixed orders."""
+    from thermogym.identification.pem import _fit_family, _sub_problem
+
+    o = {k: orders[k] for k in ("na", "nb", "nc", "nd", "nf", "nk")}
+    foc = "prediction" if focus == "least squares" else focus
+
+    def fit(us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]]) -> Any:
+        mdl, th, _, _ = _fit_family(family, _sub_problem(prob, us, ys), **o, focus=foc, max_nfev=60)
+        return mdl, th
+
+    return fit
 
 
 def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
