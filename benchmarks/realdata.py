@@ -261,13 +261,73 @@ def command_for(case: Any, train_csv: str, out: str) -> list[str]:
     return argv
 
 
+_TABLE_START = "<!-- realdata-table:start -->"
+_TABLE_END = "<!-- realdata-table:end -->"
+
+
+def readme_table(doc: dict[str, Any]) -> str:
+    """The README's real-data table (Markdown) from a results JSON of this benchmark."""
+    rows = [
+        "| data set | command (`thermogym identify auto ...`, on the training part) | chosen "
+        "| thermogym | ARX (LS, CV) | SIPPY best | margin |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    sets = doc["figures"]["sets"]
+    for name, c in doc["details"]["cases"].items():
+        f = sets[name]
+        cmd = c["command"].removeprefix("thermogym ")
+        tg = c["thermogym"]
+        sip = c["sippy"]
+        sip_txt = (
+            f"{100 * f['sippy']:.1f} % ({sip['best']})"
+            if sip.get("best") and np.isfinite(f["sippy"])
+            else "not run"
+        )
+        rows.append(
+            f"| {name} | `{cmd}` | {tg['family']} ({tg['operating_point']}) | "
+            f"{100 * f['thermogym']:.1f} % | {100 * f['arx']:.1f} % | {sip_txt} | "
+            f"{100 * c['margin']:+.1f} |"
+        )
+    worst = doc["figures"]["worst_margin"]
+    rows += [
+        "",
+        f"Worst margin (thermogym − best baseline): **{100 * worst:+.1f} points** "
+        f"(target ≥ 0{': met' if worst >= 0 else ': missed'}).",
+    ]
+    return "\n".join(rows)
+
+
+def update_readme(readme: Path, doc: dict[str, Any]) -> None:
+    """Replace the block between the realdata-table markers of ``readme`` (atomically)."""
+    text = readme.read_text(encoding="utf-8")
+    a, b = text.find(_TABLE_START), text.find(_TABLE_END)
+    if a < 0 or b < a:
+        raise SystemExit(f"{readme}: no {_TABLE_START} ... {_TABLE_END} block to replace")
+    new = text[: a + len(_TABLE_START)] + "\n" + readme_table(doc) + "\n" + text[b:]
+    atomic_write_text(readme, new)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json", type=Path, required=True, help="figures JSON to write")
+    ap.add_argument("--json", type=Path, required=True, help="figures JSON to write (or read)")
     ap.add_argument("--cases", nargs="*", default=list(CASES))
     ap.add_argument("--no-sippy", action="store_true")
     ap.add_argument("--fits", type=Path, help="folder to keep the thermogym FitResults in")
+    ap.add_argument(
+        "--readme", type=Path, help="also rewrite this README's real-data table from the results"
+    )
+    ap.add_argument(
+        "--table-only",
+        action="store_true",
+        help="run nothing: rewrite --readme's table from the existing --json",
+    )
     args = ap.parse_args()
+    if args.table_only:
+        if args.readme is None:
+            raise SystemExit("--table-only needs --readme")
+        update_readme(args.readme, json.loads(args.json.read_text(encoding="utf-8")))
+        print(f"rewrote the real-data table of {args.readme} from {args.json}")
+        return
     from thermogym.cli import main as cli
 
     report: dict[str, Any] = {"load_average_start": os.getloadavg()[0], "cases": {}}
@@ -342,6 +402,9 @@ def main() -> None:
            "peers": ["arx (least squares, numpy)", "sippy_unipi"], "details": report}  # fmt: skip
     atomic_write_text(args.json, json.dumps(doc, indent=2, default=float) + "\n")
     print(f"worst margin {100 * worst:.1f} points; wrote {args.json}")
+    if args.readme is not None:
+        update_readme(args.readme, doc)
+        print(f"rewrote the real-data table of {args.readme}")
 
 
 if __name__ == "__main__":

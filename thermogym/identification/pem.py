@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -59,6 +59,7 @@ from scipy.signal import lfilter
 from thermogym._checks import choice, integer
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.fitresult import FitResult
+from thermogym.identification.advice import check_fit, structure_warnings
 from thermogym.identification.linear_fit import data_entries, evaluate_fit
 from thermogym.identification.metrics import nrmse
 from thermogym.identification.n4sid import N4SIDProblem, prepare_problem
@@ -708,6 +709,7 @@ def pem(
     operating_point_mode: str = "mean",
     validate: Recording | Sequence[Recording] = (),
     max_nfev: int = 60,
+    expect: Mapping[str, int] | None = None,
 ) -> PEMResult:
     """Identify an ARX, ARMAX, OE or BJ model by the prediction-error method.
 
@@ -744,10 +746,16 @@ def pem(
         Recordings for the FitResult's validation metrics.
     max_nfev : int
         Most residual evaluations of the iterative fits.
+    expect : mapping, optional
+        Declared gain signs for the ``gain_sign`` warning
+        (:func:`~thermogym.identification.advice.parse_expect_sign`).
 
     Returns
     -------
     PEMResult
+        Its FitResult holds the warnings of
+        :mod:`~thermogym.identification.advice` (fit below zero, gain sign,
+        order or delay at the edge of the search, flat cross-validation).
 
     Examples
     --------
@@ -830,7 +838,19 @@ def pem(
         settings=settings,
         notes=f"{family.upper()} by the prediction-error method (thermogym.identification.pem)",
     )
+    _advise(fit, prob, expect, max_delay=max_delay)
     return PEMResult(fit, model, theta, time.perf_counter() - t0, selection)
+
+
+def _advise(
+    fit: FitResult, prob: N4SIDProblem, expect: Mapping[str, int] | None, **kw: Any
+) -> None:
+    """Store the warnings of :mod:`.advice` in ``fit`` (the command line prints them)."""
+    record_s = max(u.shape[0] for u in prob.us) * prob.dt
+    fit.add_warnings(
+        check_fit(fit, units=prob.units, expect=expect)
+        + structure_warnings(fit, record_s=record_s, **kw)
+    )
 
 
 # ==================================================== cross-validation
@@ -1050,6 +1070,7 @@ def sopdt(
     operating_point_mode: str = "mean",
     validate: Recording | Sequence[Recording] = (),
     max_nfev: int = 100,
+    expect: Mapping[str, int] | None = None,
 ) -> PEMResult:
     """Second-order-plus-dead-time model by minimising the simulation error.
 
@@ -1066,10 +1087,13 @@ def sopdt(
     max_delay_s : float, optional
         Largest delay [s] (default: a tenth of the longest experiment).
     max_nfev : int
+    expect : mapping, optional
+        Declared gain signs, as :func:`pem`.
 
     Returns
     -------
     PEMResult
+        With the warnings of :mod:`~thermogym.identification.advice`.
 
     Examples
     --------
@@ -1103,6 +1127,7 @@ def sopdt(
         settings=settings,
         notes="second-order plus dead time by simulation-error minimisation",
     )
+    _advise(fit, prob, expect)
     return PEMResult(fit, final, th[None], time.perf_counter() - t0)
 
 

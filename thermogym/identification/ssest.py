@@ -40,6 +40,7 @@ from thermogym.identification.crossval import (
 from thermogym.identification.n4sid import n4sid
 from thermogym.identification.pem import (
     PEMResult,
+    _advise,
     _cv_score,
     _fold_problems,
     _problem,
@@ -139,6 +140,7 @@ def ssest(
     operating_point_mode: str = "mean",
     validate: Recording | Sequence[Recording] = (),
     decimate: int | str = "auto",
+    expect: Mapping[str, int] | None = None,
 ) -> PEMResult:
     """State space by N4SID, structure by cross-validation, refined by PEM (MATLAB ``ssest``).
 
@@ -163,12 +165,15 @@ def ssest(
     focus : {"simulation", "prediction"}
     decimate : int or "auto"
         As :func:`~thermogym.identification.n4sid.n4sid`.
+    expect : mapping, optional
+        Declared gain signs, as :func:`~thermogym.identification.pem.pem`.
 
     Returns
     -------
     PEMResult
         FitResult of model ``ss``, method ``"ssest"`` (or ``"n4sid"`` without
-        refinement); ``settings["structure_cv"]`` holds every structure's VA.
+        refinement); ``settings["structure_cv"]`` holds every structure's VA;
+        the warnings of :mod:`~thermogym.identification.advice` are stored.
     """
     t0 = time.perf_counter()
     recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
@@ -282,6 +287,7 @@ def ssest(
         notes="N4SID (order, feedthrough, input delay by cross-validation)"
         + (" refined by PEM" if refine_fit else ""),
     )
+    _advise(out, prob, expect, orders=cand_orders)
     return PEMResult(
         out,
         full,
@@ -383,12 +389,13 @@ def identify_auto(
                     max_order=top,
                     max_delay=max_delay,
                     folds=folds,
+                    expect=expect,
                     **common,
                 )
                 structure: Any = r.fit.settings["orders"]
                 fitter = _poly_fold(prob, fam, structure, r.fit.settings["focus"])
             elif fam == "ssest":
-                r = ssest(recs, inputs, outputs, folds=folds, **common)
+                r = ssest(recs, inputs, outputs, folds=folds, expect=expect, **common)
                 st = r.fit.settings
                 structure = {
                     "order": st["order"],
@@ -397,7 +404,7 @@ def identify_auto(
                 }
                 fitter = _ssest_fold(prob, st)
             else:
-                r = sopdt(recs, inputs, outputs, **common)
+                r = sopdt(recs, inputs, outputs, expect=expect, **common)
                 structure = "K, T1, T2, tau per pair"
                 fitter = _sopdt_fold(prob)
             s_parts = _cv_score(fd, fitter, prob.dt)[0]
@@ -459,6 +466,7 @@ def identify_auto(
     }
     if note:
         fit.settings["auto"]["note"] = note
+    _advise(fit, prob, expect)  # the chosen family's cross-validated fit below zero
     return PEMResult(fit, res.model, res.theta, time.perf_counter() - t0, scores)
 
 
