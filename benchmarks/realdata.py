@@ -17,13 +17,16 @@ with the same metric:
   multi-input ARX with ``na = nb = n`` (1..10) and one delay ``nk`` (0..10)
   for all inputs, chosen by 2-fold cross-validation of the simulation fit on
   the training data; operating point of the case (``mean``, or ``rest`` for
-  the TCLab runs). Written here with numpy, independently of thermogym's
-  identification code.
+  the TCLab runs) or absolute values (``none``, which thermogym's default may
+  choose too), whichever cross-validates better. Written here with numpy,
+  independently of thermogym's identification code.
 * **sippy** — SIPPY (``sippy_unipi``, LGPL-3.0): its N4SID, MOESP and CVA
   with the order by AIC (1..10), and for single-input single-output sets also
   its ARX and ARMAX with orders and delay by AIC; centred by the case's
-  operating point. *SIPPY's best structure is picked on the held-out data*
-  (hindsight in the peer's favour, so the margin below is a conservative one).
+  operating point and, separately, on absolute values (``none``).
+  *SIPPY's best structure and operating point are picked on the held-out
+  data* (hindsight in the peer's favour, so the margin below is a
+  conservative one).
 
 Metric: NRMSE fit ``1 − ‖y − ŷ‖/‖y − ȳ‖`` per output, mean over outputs
 (MNRMSE, eq 6 of paper 001) and over the held-out recordings; each model is
@@ -35,9 +38,10 @@ outputs by least squares (MATLAB ``compare``). The same for all three.
 ``worst_margin`` is the smallest ``thermogym − max(arx, sippy)`` over the data
 sets (target >= 0).
 
-Usage::
+Usage (SIPPY from the ``bench`` extra; ``--readme`` rewrites the README's table)::
 
-    python benchmarks/realdata.py --json benchmarks/results/identification/realdata_pem.json
+    python benchmarks/realdata.py --json benchmarks/results/identification/realdata_pem.json \
+        --readme README.md
 """
 
 from __future__ import annotations
@@ -261,13 +265,73 @@ def command_for(case: Any, train_csv: str, out: str) -> list[str]:
     return argv
 
 
+_TABLE_START = "<!-- realdata-table:start -->"
+_TABLE_END = "<!-- realdata-table:end -->"
+
+
+def readme_table(doc: dict[str, Any]) -> str:
+    """The README's real-data table (Markdown) from a results JSON of this benchmark."""
+    rows = [
+        "| data set | command (`thermogym identify auto ...`, on the training part) | chosen "
+        "| thermogym | ARX (LS, CV) | SIPPY best | margin |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    sets = doc["figures"]["sets"]
+    for name, c in doc["details"]["cases"].items():
+        f = sets[name]
+        cmd = c["command"].removeprefix("thermogym ")
+        tg = c["thermogym"]
+        sip = c["sippy"]
+        sip_txt = (
+            f"{100 * f['sippy']:.1f} % ({sip['best']})"
+            if sip.get("best") and np.isfinite(f["sippy"])
+            else "not run"
+        )
+        rows.append(
+            f"| {name} | `{cmd}` | {tg['family']} ({tg['operating_point']}) | "
+            f"{100 * f['thermogym']:.1f} % | {100 * f['arx']:.1f} % | {sip_txt} | "
+            f"{100 * c['margin']:+.1f} |"
+        )
+    worst = doc["figures"]["worst_margin"]
+    rows += [
+        "",
+        f"Worst margin (thermogym − best baseline): **{100 * worst:+.1f} points** "
+        f"(target ≥ 0{': met' if worst >= 0 else ': missed'}).",
+    ]
+    return "\n".join(rows)
+
+
+def update_readme(readme: Path, doc: dict[str, Any]) -> None:
+    """Replace the block between the realdata-table markers of ``readme`` (atomically)."""
+    text = readme.read_text(encoding="utf-8")
+    a, b = text.find(_TABLE_START), text.find(_TABLE_END)
+    if a < 0 or b < a:
+        raise SystemExit(f"{readme}: no {_TABLE_START} ... {_TABLE_END} block to replace")
+    new = text[: a + len(_TABLE_START)] + "\n" + readme_table(doc) + "\n" + text[b:]
+    atomic_write_text(readme, new)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json", type=Path, required=True, help="figures JSON to write")
+    ap.add_argument("--json", type=Path, required=True, help="figures JSON to write (or read)")
     ap.add_argument("--cases", nargs="*", default=list(CASES))
     ap.add_argument("--no-sippy", action="store_true")
     ap.add_argument("--fits", type=Path, help="folder to keep the thermogym FitResults in")
+    ap.add_argument(
+        "--readme", type=Path, help="also rewrite this README's real-data table from the results"
+    )
+    ap.add_argument(
+        "--table-only",
+        action="store_true",
+        help="run nothing: rewrite --readme's table from the existing --json",
+    )
     args = ap.parse_args()
+    if args.table_only:
+        if args.readme is None:
+            raise SystemExit("--table-only needs --readme")
+        update_readme(args.readme, json.loads(args.json.read_text(encoding="utf-8")))
+        print(f"rewrote the real-data table of {args.readme} from {args.json}")
+        return
     from thermogym.cli import main as cli
 
     report: dict[str, Any] = {"load_average_start": os.getloadavg()[0], "cases": {}}
@@ -297,22 +361,27 @@ def main() -> None:
             raise SystemExit(f"{name}: thermogym identify failed (exit {rc})")
         fit = FitResult.load(fit_path)
         tg = heldout_fit(fit, vals, outs)
+        # the baselines get the case's operating point and absolute values ("none", which
+        # thermogym's default may choose too): ARX takes the better by its own
+        # cross-validation, SIPPY the better on the held-out data (hindsight in its favour)
+        modes = [case.operating_point] + (["none"] if case.operating_point != "none" else [])
         t = time.perf_counter()
-        arx = arx_baseline(train, ins, outs, case.operating_point)
-        arx_val = heldout_ss(*arx["ss"], train[0].dt, vals, ins, outs, case.operating_point)
+        arxs = {mode: arx_baseline(train, ins, outs, mode) for mode in modes}
+        arx_mode = max(modes, key=lambda md: arxs[md]["cv"])
+        arx = arxs[arx_mode]
+        arx_val = heldout_ss(*arx["ss"], train[0].dt, vals, ins, outs, arx_mode)
         t_arx = time.perf_counter() - t
         sip_scores: dict[str, float] = {}
         sip_detail: dict[str, Any] = {}
-        if not args.no_sippy:
-            for meth, res in sippy_models(train, ins, outs, case.operating_point).items():
-                sip_detail[meth] = {"seconds": res["seconds"]}
+        for mode in [] if args.no_sippy else modes:
+            for meth, res in sippy_models(train, ins, outs, mode).items():
+                key = meth if mode == case.operating_point else f"{meth} ({mode})"
+                sip_detail[key] = {"seconds": res["seconds"]}
                 if "ss" in res:
-                    sip_scores[meth] = heldout_ss(
-                        *res["ss"], train[0].dt, vals, ins, outs, case.operating_point
-                    )
-                    sip_detail[meth]["heldout"] = sip_scores[meth]
+                    sip_scores[key] = heldout_ss(*res["ss"], train[0].dt, vals, ins, outs, mode)
+                    sip_detail[key]["heldout"] = sip_scores[key]
                 else:
-                    sip_detail[meth]["error"] = res["error"]
+                    sip_detail[key]["error"] = res["error"]
         sip_best = max(sip_scores, key=lambda k: sip_scores[k]) if sip_scores else None
         sip = sip_scores[sip_best] if sip_best else float("nan")
         margin = tg - np.nanmax([arx_val, sip])
@@ -326,7 +395,8 @@ def main() -> None:
             "thermogym": {"heldout": tg, "family": chosen, "operating_point": op,
                           "auto": fit.settings.get("auto"), "seconds": t_tg},
             "arx": {"heldout": arx_val, "n": arx["n"], "nk": arx["nk"], "cv": arx["cv"],
-                    "operating_point": case.operating_point, "seconds": t_arx},
+                    "operating_point": arx_mode,
+                    "cv_per_mode": {md: arxs[md]["cv"] for md in modes}, "seconds": t_arx},
             "sippy": {"heldout": sip, "best": sip_best, "structures": sip_detail},
             "margin": margin,
         }  # fmt: skip
@@ -342,6 +412,9 @@ def main() -> None:
            "peers": ["arx (least squares, numpy)", "sippy_unipi"], "details": report}  # fmt: skip
     atomic_write_text(args.json, json.dumps(doc, indent=2, default=float) + "\n")
     print(f"worst margin {100 * worst:.1f} points; wrote {args.json}")
+    if args.readme is not None:
+        update_readme(args.readme, doc)
+        print(f"rewrote the real-data table of {args.readme}")
 
 
 if __name__ == "__main__":

@@ -87,7 +87,7 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         "--operating-point",
         choices=("estimate", "none", "initial", "mean", "rest")
         if method == "foptd"
-        else ("auto", "none", "initial", "mean")
+        else ("auto", "none", "initial", "mean", "rest")
         if method == "n4sid"
         else ("none", "initial", "mean"),
         help="foptd: 'estimate' (default) fits the output offset and the initial lag, no "
@@ -420,7 +420,11 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
 
 def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # type: ignore[no-untyped-def]
 
-    from thermogym.identification.crossval import cross_validate_order, make_folds
+    from thermogym.identification.crossval import (
+        cross_validate_order,
+        deviation_recordings,
+        make_folds,
+    )
     from thermogym.identification.metrics import fit_text
     from thermogym.identification.n4sid import n4sid
 
@@ -454,14 +458,21 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     cvs = {}
     if folds is not None and (args.folds is not None or opm == "auto"):
         for mode in ("none", "mean") if opm == "auto" else (opm,):
+            # every fold about its whole recording's operating point (a part cut out of a
+            # run that starts at rest does not itself start at rest): the same cuts, made
+            # in the deviations
+            dev_folds = make_folds(deviation_recordings(train, inputs, outputs, mode),
+                                   args.folds or 2, ins + dis)[0]  # fmt: skip
+            assert dev_folds is not None
             cvs[mode] = cross_validate_order(
-                folds,
+                dev_folds,
                 inputs,
                 outputs,
                 orders,
                 scheme=args.scheme,
                 tolerance=tol / 100,
                 operating_point_mode=mode,
+                deviations=True,
                 **common,
             )
     if opm == "auto":
@@ -482,11 +493,13 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
             )
     common["operating_point_mode"] = opm
     if args.folds is not None and opm in cvs:
+        from thermogym.identification.advice import check_cv_score
+
         cv = cvs[opm]
         order = cv.chosen_order
-        notes += cv.warnings()
         k = len(cv.folds)
         i_c = list(cv.orders).index(order)
+        notes += check_cv_score(cv.va[i_c], "order") + cv.warnings()
         print(
             f"{k}-fold cross-validation ({args.scheme}) over orders {orders.start}.."
             f"{orders.stop - 1} in {cv.seconds['total']:.2f} s: n* = {order}, the smallest "

@@ -33,6 +33,7 @@ from thermogym._cli.data import (
     parse_prepare,
 )
 from thermogym.errors import ConfigError
+from thermogym.identification.advice import parse_expect_sign
 from thermogym.identification.linear_fit import X0_CHOICES
 
 METHODS = ("arx", "armax", "oe", "bj", "sopdt", "ssest", "auto")
@@ -101,6 +102,13 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         default="auto",
         help="initial state when the fit is simulated on the recordings (metrics, plots): "
         "estimate, steady, zero; auto (default): estimate",
+    )
+    p.add_argument(
+        "--expect-sign",
+        metavar="IN=+|IN:OUT=-",
+        help="declared sign of steady-state gains, comma separated (e.g. P_heater=+); a gain "
+        "of the other sign is warned about. Without it: heaters (power units) and temperature "
+        "inputs must raise a temperature output; 'none' checks nothing",
     )
     p.add_argument("--out", required=True, help="FitResult JSON to write")
     p.add_argument("--plots", help="folder for figures")
@@ -235,6 +243,17 @@ def main(method: str, argv: list[str]) -> int:
         raise ConfigError(f"unknown PEM method {method!r}; expected one of {METHODS}")
     args = build_parser(method).parse_args(hoist_recordings(argv))
     args.command = "identify"
+    args.expect = parse_expect_sign(args.expect_sign)  # refused early
+    if method == "auto":
+        from thermogym.identification.ssest import AUTO_FAMILIES
+
+        known = (*AUTO_FAMILIES, "armax", "bj")
+        fams = [f.strip() for f in args.families.split(",") if f.strip()]
+        if not fams or any(f not in known for f in fams):
+            raise ConfigError(
+                f"--families {args.families!r}: expected a comma-separated list from "
+                f"{sorted(set(known))}"
+            )
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
     _early(method, args)
@@ -338,22 +357,32 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             folds=args.folds,
             max_order=args.max_order,
             max_delay=args.max_delay,
+            expect=args.expect,
             **common,
         )
         auto = res.fit.settings["auto"]
         print(
-            f"auto in {res.seconds:.1f} s: chose {auto['chosen']} by {args.folds}-fold "
-            "cross-validation on the training data"
+            f"auto in {res.seconds:.1f} s: chose {auto['chosen']}, the best cross-validated "
+            f"fit on the training data ({args.folds} parts and {auto['kfold_blocks'] or 'no'} "
+            "k-fold blocks) among the stable families whose gains agree with the physics"
         )
         for fam, s in auto["families"].items():
             if "cv_mnrmse" in s:
-                print(f"  {fam:<6} CV MNRMSE {100 * s['cv_mnrmse']:7.2f} %   {s['structure']}")
+                why = [] if s["stable"] else [f"unstable: pole {s['max_abs_eigenvalue']:.4g}"]
+                why += ["gain sign"] if s["gain_sign"] else []
+                print(
+                    f"  {fam:<6} CV MNRMSE {100 * s['cv_mnrmse']:7.2f} %   {s['structure']}"
+                    + (f"   not admissible ({'; '.join(why)})" if why else "")
+                )
             else:
                 print(f"  {fam:<6} failed: {s['error']}")
+        if auto.get("note"):
+            print(f"  note: {auto['note']}")
     fit = res.fit
     if op != args.operating_point:
         fit.settings["operating_point_choice"] = {"mode": op, "rule": "ARX cross-validation"}
     _report(fit, args.x0)
+    _structure_warn(fit, method, args, train, vals)
     fit.save(plan.path("--out"))
     plots = plan.get("--plots")
     if plots:
@@ -363,3 +392,21 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             print(f"  figure: {plan.final(f)}")
     print(f"wrote {args.out}")
     return 0
+
+
+def _structure_warn(
+    fit: Any, method: str, args: argparse.Namespace, train: list[Any], vals: list[Any]
+) -> None:
+    """Print and store the warnings: fits below zero, gain signs, structure at an edge."""
+    from thermogym._cli.identify_linear import _warn
+    from thermogym.identification.advice import structure_warnings
+
+    orders = None
+    if method == "ssest" and args.order is None:
+        a, _, b = args.orders.partition(":")
+        orders = range(int(a), int(b or a) + 1)
+    record_s = max(r.n_samples * r.dt for r in train)
+    extra = structure_warnings(
+        fit, orders=orders, max_delay=getattr(args, "max_delay", None), record_s=record_s
+    )
+    _warn(fit, train + vals, args, extra)

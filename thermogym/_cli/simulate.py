@@ -30,7 +30,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--x0",
         choices=("auto", "estimate", "steady", "zero"),
         default="auto",
-        help="initial state of a linear fit (ss, foptd): estimate (least squares on the "
+        help="initial state of a linear fit (ss, foptd, arx, armax, oe, bj, sopdt): estimate "
+        "(least squares on the "
         "recording's outputs), steady (settled at the first input), zero (at rest at the "
         "operating point); auto (default): estimate when the recording has the outputs, "
         "else steady. Other models start in their own initial state",
@@ -60,6 +61,7 @@ def parse_sets(items: list[str]) -> dict[str, float]:
 def run(args: argparse.Namespace) -> int:
     """Simulate and write the result."""
     from thermogym.fitresult import load_fit
+    from thermogym.identification.linear_fit import LINEAR_MODELS
     from thermogym.models.registry import get_model
     from thermogym.recording import Recording, write_recording
 
@@ -76,8 +78,10 @@ def run(args: argparse.Namespace) -> int:
             )
         model = fit.build_model()
         theta = fit.theta(model)
-        if fit.model in ("ss", "foptd"):
-            linear = fit  # its operating point and an initial state chosen by --x0
+        if fit.model in LINEAR_MODELS:
+            # ss, foptd and the polynomial and SOPDT families: the operating point the
+            # fit was identified about and an initial state chosen by --x0
+            linear = fit
     elif args.model:
         model = get_model(args.model)
         theta = model.theta()
@@ -103,7 +107,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         if args.x0 != "auto":
             raise ConfigError(
-                f"--x0 {args.x0} applies to linear fits (ss, foptd); model {model.name!r} "
+                f"--x0 {args.x0} applies to linear fits (--params of ss, foptd, arx, armax, oe, "
+                f"bj, sopdt); model {model.name!r} "
                 "starts in its own initial state"
             )
         u = rec.exogenous_array(model)

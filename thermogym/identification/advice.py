@@ -47,6 +47,7 @@ __all__ = [
     "CODES",
     "DEFAULT_TOLERANCE",
     "FitWarning",
+    "check_cv_score",
     "check_fit",
     "check_gain_signs",
     "check_metrics",
@@ -54,6 +55,7 @@ __all__ = [
     "expected_signs",
     "parse_expect_sign",
     "parsimonious_index",
+    "structure_warnings",
 ]
 
 #: Stable codes of :class:`FitWarning` (the module docstring says when each fires).
@@ -354,8 +356,12 @@ def check_gain_signs(
     return out
 
 
+#: FitResults whose steady-state gains :func:`check_fit` checks (the linear families).
+_GAIN_MODELS = ("ss", "foptd", "sopdt", "arx", "armax", "oe", "bj")
+
+
 def _linear_gains(fit: Any) -> tuple[dict[tuple[str, str], float], dict[tuple[str, str], float]]:
-    """Steady-state gains (and FOPTD standard errors) of an ``ss``/``foptd`` FitResult."""
+    """Steady-state gains (and FOPTD/SOPDT standard errors) of a linear FitResult."""
     model = fit.build_model()
     theta = fit.theta(model)
     exo, outs = list(model.exogenous_names), list(model.output_names)
@@ -370,6 +376,12 @@ def _linear_gains(fit: Any) -> tuple[dict[tuple[str, str], float], dict[tuple[st
             for i in exo:
                 tag = o if len(exo) == 1 else f"{o}__{i}"
                 se[(o, i)] = float(fit.stderr.get(f"K_{tag}", float("nan")))
+    elif fit.model == "sopdt":
+        for o in outs:
+            for i in exo:
+                se[(o, i)] = float(
+                    fit.stderr.get(f"K_{o}__{i}", fit.stderr.get(f"K_{o}", math.nan))
+                )
     return gains, se
 
 
@@ -379,7 +391,7 @@ def check_fit(
     units: Mapping[str, str] | None = None,
     expect: Mapping[str, int] | None = None,
 ) -> list[FitWarning]:
-    """The generic checks of a FitResult: fits below zero, gain signs (``ss``/``foptd``).
+    """The generic checks of a FitResult: fits below zero, gain signs (linear families).
 
     Parameters
     ----------
@@ -394,7 +406,7 @@ def check_fit(
     list of FitWarning
     """
     out = check_metrics(fit.metrics)
-    if fit.model in ("ss", "foptd"):
+    if fit.model in _GAIN_MODELS:
         model = fit.build_model()
         all_units = {s.name: s.unit for s in model.signals}
         all_units.update(dict(units or {}))
@@ -404,4 +416,142 @@ def check_fit(
         if exp:
             gains, se = _linear_gains(fit)
             out += check_gain_signs(gains, exp, se)
+    return out
+
+
+def check_cv_score(score: Any, what: str) -> list[FitWarning]:
+    """``fit_below_zero`` when the cross-validated fit of the chosen ``what`` is below zero.
+
+    Examples
+    --------
+    >>> [w.code for w in check_cv_score(-0.12, "order")], check_cv_score(0.8, "order")
+    (['fit_below_zero'], [])
+    """
+    score = float(score) if isinstance(score, int | float | np.floating) else score
+    if isinstance(score, float) and math.isfinite(score) and score < 0:
+        return [
+            FitWarning(
+                "fit_below_zero",
+                f"the cross-validated fit of the chosen {what} is {100 * score:.1f} %: on the "
+                "part of the training data it was not fitted to it predicts worse than the "
+                "mean; the data may be too short or the operating point wrong",
+            )
+        ]
+    return []
+
+
+def structure_warnings(
+    fit: Any,
+    *,
+    orders: Sequence[int] | None = None,
+    max_delay: int | None = None,
+    record_s: float | None = None,
+) -> list[FitWarning]:
+    """Warnings about the structure a prediction-error fit chose by cross-validation.
+
+    Reads what :func:`~thermogym.identification.pem.pem`,
+    :func:`~thermogym.identification.pem.sopdt`,
+    :func:`~thermogym.identification.ssest.ssest` and
+    :func:`~thermogym.identification.ssest.identify_auto` store in
+    ``fit.settings``: ``order_at_edge`` for an order or delay chosen at the
+    end of its searched range, ``flat_cv`` for a flat order curve (the rule of
+    :func:`check_order`), ``time_constant_bound`` for a SOPDT time constant
+    longer than ten records, and ``fit_below_zero`` when the chosen
+    structure's cross-validated fit is below zero. Orders and delays that
+    were given rather than searched are not judged.
+
+    Parameters
+    ----------
+    fit : FitResult
+    orders : sequence of int, optional
+        Orders the state-space search tried (``ssest``); default: the
+        curve's length from 1.
+    max_delay : int, optional
+        Largest input delay searched [samples] (polynomial families); not
+        judged without it.
+    record_s : float, optional
+        Duration of the longest training record [s], for the SOPDT time
+        constants; not judged without it.
+
+    Returns
+    -------
+    list of FitWarning
+    """
+    st = fit.settings
+    out: list[FitWarning] = []
+    auto = st.get("auto")
+    if isinstance(auto, Mapping):
+        chosen = auto.get("chosen")
+        fam = (auto.get("families") or {}).get(chosen, {})
+        out += check_cv_score(fam.get("cv_mnrmse"), f"model family ({chosen})")
+    cv = st.get("cross_validation")
+    if isinstance(cv, Mapping) and cv.get("order_scores"):
+        scores = np.asarray(cv["order_scores"], dtype=float)
+        chosen_n = int(cv.get("chosen_order", parsimonious_index(scores)))
+        if not isinstance(auto, Mapping):
+            out += check_cv_score(float(scores[chosen_n - 1]), "orders")
+        out += check_order(
+            range(1, scores.size + 1),
+            scores,
+            chosen_n,
+            tolerance=float(cv.get("tolerance", DEFAULT_TOLERANCE)),
+        )
+        nk = np.asarray((st.get("orders") or {}).get("nk", []), dtype=float)
+        if max_delay and "nk" in (st.get("chosen_by_cv") or []) and nk.size:
+            if int(nk.max()) >= int(max_delay):
+                out.append(
+                    FitWarning(
+                        "order_at_edge",
+                        f"the chosen input delay {int(nk.max())} samples is the largest "
+                        f"searched (0..{int(max_delay)}): the best may lie beyond; raise "
+                        "--max-delay",
+                    )
+                )
+    table = st.get("structure_cv")
+    if isinstance(table, list) and st.get("structure_source") == "cross-validation":
+        d, ft = st.get("input_delay"), st.get("feedthrough")
+        row = next(
+            (
+                r
+                for r in table
+                if r.get("delay") == d and r.get("feedthrough") == ft and "VA_curve" in r
+            ),
+            None,
+        )
+        if row is not None:
+            curve = np.asarray(row["VA_curve"], dtype=float)
+            o = list(orders) if orders is not None else list(range(1, curve.size + 1))
+            if len(o) == curve.size:
+                if not isinstance(auto, Mapping):
+                    out += check_cv_score(float(np.nanmax(curve)), "state-space structure")
+                out += check_order(o, curve, int(st.get("order", o[0])))
+        delays = sorted({int(r["delay"]) for r in table if "delay" in r})
+        if len(delays) > 1 and d is not None and int(d) == delays[-1]:
+            out.append(
+                FitWarning(
+                    "order_at_edge",
+                    f"the chosen input delay {int(d)} samples is the largest searched "
+                    f"(0..{delays[-1]}): the best may lie beyond; raise --max-delay",
+                )
+            )
+    if fit.model == "sopdt":
+        bound = st.get("max_delay_s")
+        for name, v in fit.parameters.items():
+            if name.startswith("tau_") and bound and v >= 0.999 * float(bound):
+                out.append(
+                    FitWarning(
+                        "order_at_edge",
+                        f"the delay {name} = {v:.4g} s is at the largest searched "
+                        f"({float(bound):.4g} s): the best may lie beyond; raise --max-delay-s",
+                    )
+                )
+            if name.startswith(("T1_", "T2_")) and record_s and v >= 10.0 * record_s:
+                out.append(
+                    FitWarning(
+                        "time_constant_bound",
+                        f"the time constant {name} = {v:.4g} s is over ten record lengths "
+                        f"({record_s:.4g} s): the record does not settle enough to tell the "
+                        "gain from the time constant",
+                    )
+                )
     return out

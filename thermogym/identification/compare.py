@@ -2,10 +2,12 @@
 
 :func:`compare` simulates (or predicts ``k`` samples ahead) every FitResult
 on one recording and gives the fit of each output (NRMSE fit, 001 eq 5; see
-:mod:`thermogym.identification.metrics` for the name and scale). Linear fits
-(``ss``, ``foptd``) go through :func:`~thermogym.identification.linear_fit.predict`
-(their operating point, the initial state chosen by ``x0``); any other
-FitResult is simulated from its model's own initial state.
+:mod:`thermogym.identification.metrics` for the name and scale).
+Linear fits (``ss``, ``foptd``, the polynomial families ``arx``, ``armax``,
+``oe``, ``bj`` and ``sopdt``) go through
+:func:`~thermogym.identification.linear_fit.predict` (their operating point,
+the initial state chosen by ``x0``); any other FitResult is simulated from
+its model's own initial state.
 
 :func:`resid` runs Ljung's whiteness and input cross-correlation tests on the
 residuals ``y − ŷ`` of one fit, with the tests of the diagnosis
@@ -25,7 +27,7 @@ from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError, RecordingError
 from thermogym.fitresult import FitResult, load_fit
-from thermogym.identification.linear_fit import X0_CHOICES, predict
+from thermogym.identification.linear_fit import LINEAR_MODELS, X0_CHOICES, predict
 from thermogym.identification.metrics import nrmse
 from thermogym.recording import Recording
 
@@ -135,14 +137,16 @@ def predict_any(
     fit = load_fit(fit)
     if x0 not in X0_CHOICES:
         raise ConfigError(f"x0 is {x0!r}; expected one of {list(X0_CHOICES)}")
-    if fit.model in ("ss", "foptd"):
+    if fit.model in LINEAR_MODELS:
+        # ss, foptd, the polynomial families and SOPDT: about the fit's operating point,
+        # initial state as asked
         p = predict(fit, rec, x0=x0, k_step=k_step)
         out = {c: p.outputs[:, j] for j, c in enumerate(p.output_names)}
         return out, p.x0, p.horizon, p.note
     if x0 != "auto":
         raise ConfigError(
-            f"x0={x0!r} applies to linear fits (ss, foptd); the {fit.model!r} model starts in "
-            "its own initial state"
+            f"x0={x0!r} applies to linear fits {list(LINEAR_MODELS)}; the {fit.model!r} model "
+            "starts in its own initial state"
         )
     model = fit.build_model()
     theta = fit.theta(model)

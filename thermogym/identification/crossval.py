@@ -45,6 +45,7 @@ __all__ = [
     "SCHEMES",
     "OrderCV",
     "cross_validate_order",
+    "deviation_recordings",
     "make_folds",
     "split_excited",
     "split_recording",
@@ -354,6 +355,68 @@ def make_folds(
     return None, notes
 
 
+def deviation_recordings(
+    recordings: Recording | Sequence[Recording],
+    inputs: Sequence[str] | str,
+    outputs: Sequence[str] | str,
+    operating_point_mode: str,
+) -> list[Recording]:
+    """Each recording minus its own operating point, for folds cut from it.
+
+    A fold cut out of a recording must be judged about the recording's
+    operating point, not its own: a part of a TCLab run cut at minute 5 does
+    not start at rest (``"rest"``, ``"initial"``), and a part's mean is not
+    the run's (``"mean"``). Cut the returned deviation recordings into folds
+    (:func:`make_folds`, :func:`split_recording`) and pass
+    ``deviations=True`` to :func:`cross_validate_order`. Other columns are
+    kept as they are; ``meta["operating_point"]`` holds what was subtracted.
+
+    Examples
+    --------
+    >>> rec = Recording(np.arange(4.0), {"u": [0.0, 1, 1, 1], "y": [20.0, 21, 22, 23]})
+    >>> dev = deviation_recordings(rec, ["u"], ["y"], "rest")[0]
+    >>> dev["y"].tolist(), split_recording(dev, 2)[1]["y"].tolist()
+    ([0.0, 1.0, 2.0, 3.0], [2.0, 3.0])
+    """
+    from thermogym.identification.linear_fit import operating_point
+
+    recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
+    ins = [inputs] if isinstance(inputs, str) else list(inputs)
+    outs = [outputs] if isinstance(outputs, str) else list(outputs)
+    out = []
+    for rec in recs:
+        missing = [c for c in ins + outs if c not in rec.columns]
+        if missing:
+            raise ConfigError(
+                f"columns {missing} are not in recording {rec.experiment_id!r}; it has "
+                f"{list(rec.columns)}"
+            )
+        u = np.column_stack([np.asarray(rec[c], dtype=float) for c in ins])
+        y = np.column_stack([np.asarray(rec[c], dtype=float) for c in outs])
+        u_op, y_op = operating_point(u, y, operating_point_mode)
+        assert y_op is not None
+        cols = {c: np.asarray(rec[c]) for c in rec.columns}
+        cols.update({c: u[:, k] - u_op[k] for k, c in enumerate(ins)})
+        cols.update({c: y[:, k] - y_op[k] for k, c in enumerate(outs)})
+        op = {
+            "mode": operating_point_mode,
+            "inputs": dict(zip(ins, u_op.tolist(), strict=True)),
+            "outputs": dict(zip(outs, y_op.tolist(), strict=True)),
+        }
+        out.append(
+            Recording(
+                rec.time,
+                cols,
+                units=dict(rec.units),
+                roles=dict(rec.roles),
+                experiment_id=rec.experiment_id,
+                source=rec.source,
+                meta={**rec.meta, "operating_point": op},
+            )
+        )
+    return out
+
+
 def _moves(rec: Recording, inputs: Sequence[str]) -> bool:
     return all(_changes(np.asarray(rec[c], dtype=float)).size > 0 for c in inputs)
 
@@ -389,6 +452,7 @@ def cross_validate_order(
     x0: str = "estimate",
     operating_point_mode: str = "none",
     tolerance: float = 1e-3,
+    deviations: bool = False,
 ) -> OrderCV:
     """Choose the N4SID order by k-fold cross-validation over experiments.
 
@@ -411,6 +475,11 @@ def cross_validate_order(
         experiment in the regression).
     tolerance : float
         VA tolerance of :attr:`OrderCV.parsimonious_order` (fraction).
+    deviations : bool
+        The folds hold deviations from their recordings' operating points
+        already (:func:`deviation_recordings`, then cut): nothing more is
+        subtracted (``operating_point_mode`` is only recorded) and an input
+        held constant (a step from rest) is accepted.
 
     Returns
     -------
@@ -442,7 +511,8 @@ def cross_validate_order(
             inputs,
             outputs,
             disturbances=disturbances,
-            operating_point_mode=operating_point_mode,
+            operating_point_mode="none" if deviations else operating_point_mode,
+            step_inputs=True if deviations else None,
         )
         for f in fl
     ]
@@ -483,6 +553,7 @@ def cross_validate_order(
             "feedthrough": feedthrough,
             "x0": x0,
             "operating_point_mode": operating_point_mode,
+            "operating_point_of": "each recording before the cut" if deviations else "each fold",
             "inputs": probs[0].inputs + probs[0].disturbances,
             "outputs": probs[0].outputs,
         }

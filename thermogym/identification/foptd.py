@@ -861,6 +861,10 @@ def fit_foptd(
         "seconds": seconds,
     }
     train_recs = [e.recording for e in exps]
+    from thermogym.identification.pem import signal_ranges  # pem imports this module
+
+    # the recorded ranges: what IdentifiedPlant-v0 scales actions and observations by
+    settings["signal_ranges"] = signal_ranges(train_recs, exo + list(outputs))
     fit = FitResult.from_model(
         model,
         method="foptd_least_squares",

@@ -1177,6 +1177,7 @@ class N4SIDProblem:
     dt: float
     units: dict[str, str]
     recordings: list[Recording]
+    mode: str = "none"  # the operating-point mode that made the deviations
 
 
 def prepare_problem(
@@ -1187,8 +1188,13 @@ def prepare_problem(
     disturbances: Sequence[str] | None = None,
     operating_point_mode: str = "none",
     min_samples: int = 8,
+    step_inputs: bool | None = None,
 ) -> N4SIDProblem:
-    """Check recordings and return deviation arrays in model column order."""
+    """Check recordings and return deviation arrays in model column order.
+
+    ``step_inputs`` accepts an input held constant at a non-zero value (a step
+    from zero at ``t = 0``); default: with operating point ``"rest"`` only.
+    """
     inputs = [inputs] if isinstance(inputs, str) else list(inputs)
     outputs = [outputs] if isinstance(outputs, str) else list(outputs)
     if operating_point_mode not in OPERATING_POINTS:
@@ -1201,7 +1207,7 @@ def prepare_problem(
         outputs,
         min_samples=min_samples,
         what="N4SID",
-        step_inputs=operating_point_mode == "rest",
+        step_inputs=operating_point_mode == "rest" if step_inputs is None else step_inputs,
     )
     ins, dis = exogenous_roles(exps[0].recording, inputs, disturbances)
     order = [inputs.index(c) for c in ins + dis]
@@ -1215,7 +1221,16 @@ def prepare_problem(
     rec0 = exps[0].recording
     units = {c: rec0.units[c] for c in ins + dis + outputs if c in rec0.units}
     return N4SIDProblem(
-        ins, dis, outputs, us, ys, ops, exps[0].dt, units, [e.recording for e in exps]
+        ins,
+        dis,
+        outputs,
+        us,
+        ys,
+        ops,
+        exps[0].dt,
+        units,
+        [e.recording for e in exps],
+        operating_point_mode,
     )
 
 
@@ -1248,6 +1263,10 @@ def system_fitresult(
         "inputs": {c: float(u_op[k]) for k, c in enumerate(exo)},
         "outputs": {c: float(y_op[k]) for k, c in enumerate(prob.outputs)},
     }
+    if prob.recordings:  # the recorded ranges: what IdentifiedPlant-v0 scales by
+        from thermogym.identification.pem import signal_ranges  # pem imports this module
+
+        st.setdefault("signal_ranges", signal_ranges(prob.recordings, exo + prob.outputs))
     # the model itself carries the operating point: every simulation path applies it
     model = StateSpaceModel(**{**model.config(), "u_op": u_op.tolist(), "y_op": y_op.tolist()})
     arr = {

@@ -21,8 +21,9 @@
 
 from __future__ import annotations
 
+import itertools
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -30,15 +31,22 @@ from numpy.typing import NDArray
 
 from thermogym._checks import integer
 from thermogym.errors import ConfigError, IdentificationError
-from thermogym.identification.crossval import cross_validate_order, split_recording
+from thermogym.identification.advice import check_fit
+from thermogym.identification.crossval import (
+    cross_validate_order,
+    deviation_recordings,
+    split_recording,
+)
 from thermogym.identification.n4sid import n4sid
 from thermogym.identification.pem import (
     PEMResult,
+    _advise,
     _cv_score,
     _fold_problems,
     _problem,
     pem,
     refine,
+    simulation_fit,
     sopdt,
 )
 from thermogym.models.linear import StateSpaceModel
@@ -132,6 +140,7 @@ def ssest(
     operating_point_mode: str = "mean",
     validate: Recording | Sequence[Recording] = (),
     decimate: int | str = "auto",
+    expect: Mapping[str, int] | None = None,
 ) -> PEMResult:
     """State space by N4SID, structure by cross-validation, refined by PEM (MATLAB ``ssest``).
 
@@ -156,12 +165,15 @@ def ssest(
     focus : {"simulation", "prediction"}
     decimate : int or "auto"
         As :func:`~thermogym.identification.n4sid.n4sid`.
+    expect : mapping, optional
+        Declared gain signs, as :func:`~thermogym.identification.pem.pem`.
 
     Returns
     -------
     PEMResult
         FitResult of model ``ss``, method ``"ssest"`` (or ``"n4sid"`` without
-        refinement); ``settings["structure_cv"]`` holds every structure's VA.
+        refinement); ``settings["structure_cv"]`` holds every structure's VA;
+        the warnings of :mod:`~thermogym.identification.advice` are stored.
     """
     t0 = time.perf_counter()
     recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
@@ -181,7 +193,11 @@ def ssest(
     cand_orders = [int(order)] if order is not None else list(orders)
     table = []
     for d in delays:
-        shifted = [delay_inputs(r, inputs, d) for r in recs]
+        # folds of deviation data: each part about its whole recording's operating point
+        # (a part cut from a TCLab run does not start at rest), the folds of pem()
+        shifted = deviation_recordings(
+            [delay_inputs(r, inputs, d) for r in recs], inputs, outputs, operating_point_mode
+        )
         fl = (
             [[p] for p in split_recording(shifted[0], folds)]
             if len(shifted) == 1
@@ -201,6 +217,7 @@ def ssest(
                     operating_point_mode=operating_point_mode,
                     decimate=decimate,
                     tolerance=tolerance,
+                    deviations=True,
                 )
             except (IdentificationError, ConfigError, np.linalg.LinAlgError) as e:
                 table.append({"delay": d, "feedthrough": ft, "error": str(e)})
@@ -270,6 +287,7 @@ def ssest(
         notes="N4SID (order, feedthrough, input delay by cross-validation)"
         + (" refined by PEM" if refine_fit else ""),
     )
+    _advise(out, prob, expect, orders=cand_orders)
     return PEMResult(
         out,
         full,
@@ -292,15 +310,34 @@ def identify_auto(
     disturbances: Sequence[str] | None = None,
     operating_point_mode: str = "mean",
     validate: Recording | Sequence[Recording] = (),
+    expect: Mapping[str, int] | None = None,
 ) -> PEMResult:
     """The model family with the best cross-validated simulation fit, refitted on all data.
 
-    Every family in ``families`` gets its structure by cross-validation on the
-    training data (:func:`~thermogym.identification.pem.pem`, :func:`ssest`,
-    :func:`~thermogym.identification.pem.sopdt`); the structures are then
-    compared on the same folds by the mean simulation fit of the model trained
-    on one fold on the others (MNRMSE, initial state estimated). Ties within
-    0.1 % go to the earlier family in ``families`` (the simpler).
+    1. Every family in ``families`` gets its structure by ``folds``-fold
+       cross-validation on the training data
+       (:func:`~thermogym.identification.pem.pem`, :func:`ssest`,
+       :func:`~thermogym.identification.pem.sopdt`) and is refitted on all of
+       it.
+    2. The structures are compared by their mean simulation fit (MNRMSE,
+       initial state estimated) over two partitions of the training data: the
+       ``folds`` parts of step 1 (a model trained on one part, tested on each
+       other), and ``max(3, folds)`` contiguous blocks (a model trained on all
+       blocks but one, tested on that one; the usual k-fold). The second
+       trains on more of the data, as the final model is, and a second
+       partition halves the luck of one cut; on short records the two rank the
+       families differently (TCLab MIMO, 200 samples: the halves alone put the
+       state space above SOPDT, 72 % against 70 %, the held-out runs 82 %
+       against 91 %).
+    3. A structure is *admissible* when its model trained on all the data is
+       stable (every pole inside the unit circle: a thermal plant's is, and a
+       simulation-focused fit should be, as MATLAB enforces) and no
+       steady-state gain contradicts the declared physics
+       (:func:`~thermogym.identification.advice.expected_signs`: units, names,
+       ``expect``). The best admissible family is chosen; ties within 0.1 %
+       go to the earlier family in ``families`` (the simpler). Only when no
+       family is admissible is the best of all chosen (``settings["auto"]
+       ["note"]`` says so). Nothing here looks at validation data.
 
     Parameters
     ----------
@@ -313,12 +350,15 @@ def identify_auto(
         Largest ARX order tried.
     iterative_max_order : int
         Largest order of the iteratively fitted families (ARMAX, OE, BJ).
+    expect : mapping, optional
+        Declared gain signs (:func:`~thermogym.identification.advice.parse_expect_sign`).
 
     Returns
     -------
     PEMResult
         The chosen family's result; ``settings["auto"]`` lists every
-        family's cross-validated score and structure.
+        family's cross-validated scores (``cv_mnrmse``, the mean;
+        ``cv_parts``, ``cv_kfold``), structure and admissibility.
     """
     t0 = time.perf_counter()
     known = ("arx", "armax", "oe", "bj", "sopdt", "ssest")
@@ -332,6 +372,7 @@ def identify_auto(
     outputs = [outputs] if isinstance(outputs, str) else list(outputs)
     prob = _problem(recs, inputs, outputs, disturbances, operating_point_mode)
     fd = _fold_problems(prob, folds)
+    blocks = _complement_folds(prob, max(3, int(folds)))
     scores: dict[str, Any] = {}
     results: dict[str, PEMResult] = {}
     common = {"disturbances": disturbances, "operating_point_mode": operating_point_mode}
@@ -348,27 +389,46 @@ def identify_auto(
                     max_order=top,
                     max_delay=max_delay,
                     folds=folds,
+                    expect=expect,
                     **common,
                 )
-                va = r.selection["order_scores"][r.selection["chosen_order"] - 1]
                 structure: Any = r.fit.settings["orders"]
+                fitter = _poly_fold(prob, fam, structure, r.fit.settings["focus"])
             elif fam == "ssest":
-                r = ssest(recs, inputs, outputs, folds=folds, **common)
+                r = ssest(recs, inputs, outputs, folds=folds, expect=expect, **common)
                 st = r.fit.settings
                 structure = {
                     "order": st["order"],
                     "feedthrough": st["feedthrough"],
                     "input_delay": st["input_delay"],
                 }
-                va = _cv_score(fd, _ssest_fold(prob, st), prob.dt)[0]
+                fitter = _ssest_fold(prob, st)
             else:
-                r = sopdt(recs, inputs, outputs, **common)
+                r = sopdt(recs, inputs, outputs, expect=expect, **common)
                 structure = "K, T1, T2, tau per pair"
-                va = _cv_score(fd, _sopdt_fold(prob, operating_point_mode), prob.dt)[0]
+                fitter = _sopdt_fold(prob)
+            s_parts = _cv_score(fd, fitter, prob.dt)[0]
+            s_k = _kfold_score(blocks, fitter, prob.dt) if blocks else None
         except (IdentificationError, ConfigError, np.linalg.LinAlgError) as e:
             scores[fam] = {"error": str(e)}
             continue
-        scores[fam] = {"cv_mnrmse": float(va), "structure": structure}
+        parts = [v for v in (s_parts, s_k) if v is not None]
+        radius = _spectral_radius(r.model, r.theta, prob.dt)
+        signs = [
+            w.message
+            for w in check_fit(r.fit, units=prob.units, expect=expect)
+            if w.code == "gain_sign"
+        ]
+        scores[fam] = {
+            "cv_mnrmse": float(np.mean(parts)),
+            "cv_parts": float(s_parts),
+            "cv_kfold": None if s_k is None else float(s_k),
+            "structure": structure,
+            "max_abs_eigenvalue": radius,
+            "stable": bool(radius < 1.0),
+            "gain_sign": signs,
+            "admissible": bool(radius < 1.0 and not signs),
+        }
         results[fam] = r
     ok = {
         f: s["cv_mnrmse"]
@@ -377,8 +437,16 @@ def identify_auto(
     }
     if not ok:
         raise IdentificationError(f"no model family could be identified: {scores}")
-    top = max(ok.values())
-    best = next(f for f in families if f in ok and ok[f] >= top - 1e-3)
+    pool = {f: v for f, v in ok.items() if scores[f]["admissible"]}
+    note = None
+    if not pool:
+        pool = ok
+        note = (
+            "no family gave a stable model whose gains agree with the declared physics; "
+            "chose the best cross-validated one regardless"
+        )
+    top = max(pool.values())
+    best = next(f for f in families if f in pool and pool[f] >= top - 1e-3)
     res = results[best]
     fit = res.fit
     vals = [validate] if isinstance(validate, Recording) else list(validate)
@@ -391,14 +459,89 @@ def identify_auto(
         "families": scores,
         "chosen": best,
         "folds": folds,
+        "kfold_blocks": len(blocks) if blocks else None,
+        "rule": "best mean cross-validated fit (the folds' parts and k-fold blocks) among "
+        "the stable families whose gains agree with the declared physics",
         "seconds": time.perf_counter() - t0,
     }
+    if note:
+        fit.settings["auto"]["note"] = note
+    _advise(fit, prob, expect)  # the chosen family's cross-validated fit below zero
     return PEMResult(fit, res.model, res.theta, time.perf_counter() - t0, scores)
+
+
+def _complement_folds(prob: Any, k: int) -> list[tuple[list[Any], list[Any], list[Any], list[Any]]]:
+    """k-fold blocks of deviation data: (train us, train ys, test us, test ys) per block.
+
+    Several recordings (at least ``k``) are dealt round robin; one recording
+    is cut into ``k`` contiguous blocks and each block's training data are
+    the rest of the recording (before and after the block: one or two
+    experiments). Empty when neither applies (two to ``k − 1`` recordings).
+    """
+    us, ys = prob.us, prob.ys
+    out = []
+    if len(us) >= k:
+        for i in range(k):
+            tr = [j for j in range(len(us)) if j % k != i]
+            te = [j for j in range(len(us)) if j % k == i]
+            out.append(([us[j] for j in tr], [ys[j] for j in tr], [us[j] for j in te],
+                        [ys[j] for j in te]))  # fmt: skip
+        return out
+    if len(us) != 1:
+        return []
+    T = us[0].shape[0]
+    edges = np.linspace(0, T, k + 1).round().astype(int)
+    u, y = us[0], ys[0]
+    for a, b in itertools.pairwise(edges):
+        segs = [(0, a), (b, T)]
+        tu = [u[s:e] for s, e in segs if e > s]
+        ty = [y[s:e] for s, e in segs if e > s]
+        out.append((tu, ty, [u[a:b]], [y[a:b]]))
+    return out
+
+
+def _kfold_score(blocks: Any, fit_fn: Any, dt: float) -> float:
+    """Mean simulation fit of each block under the model trained on the others."""
+    scores = []
+    for tu, ty, vu, vy in blocks:
+        try:
+            model, theta = fit_fn(tu, ty)
+        except (IdentificationError, np.linalg.LinAlgError, ValueError):
+            return -np.inf
+        scores.append(simulation_fit(model, theta, vu, vy, dt)[0])
+    return float(np.mean(scores))
+
+
+def _spectral_radius(model: Any, theta: NDArray[np.float64], dt: float) -> float:
+    """Largest pole magnitude of a linear model's discrete realisation at ``dt``."""
+    from thermogym.identification.pem import _as_ss
+
+    try:
+        A = _as_ss(model, np.atleast_2d(theta), dt).matrices().A[0]
+    except Exception:  # a model that cannot be realised is not admissible
+        return float("inf")
+    if A.size == 0:
+        return 0.0
+    return float(np.max(np.abs(np.linalg.eigvals(A))))
+
+
+def _poly_fold(prob: Any, family: str, orders: Mapping[str, Any], focus: str) -> Any:
+    """Fold fitter of a polynomial family with fixed orders."""
+    from thermogym.identification.pem import _fit_family, _sub_problem
+
+    o = {k: orders[k] for k in ("na", "nb", "nc", "nd", "nf", "nk")}
+    foc = "prediction" if focus == "least squares" else focus
+
+    def fit(us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]]) -> Any:
+        mdl, th, _, _ = _fit_family(family, _sub_problem(prob, us, ys), **o, focus=foc, max_nfev=60)
+        return mdl, th
+
+    return fit
 
 
 def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
     """Fold fitter of a fixed state-space structure (order, feedthrough, delay)."""
-    from thermogym.identification.pem import _Data, _solve
+    from thermogym.identification.pem import _Data, _offset, _solve
 
     def fit(us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]]) -> Any:
         from thermogym.identification.n4sid import n4sid_decompose
@@ -422,7 +565,7 @@ def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
                 m,
                 m.nominal,
                 np.arange(m.nominal.size),
-                _Data(us_d, ys, prob.dt),
+                _Data(us_d, ys, prob.dt, _offset(prob.mode)),
                 "simulation",
                 max_nfev=40,
             )
@@ -442,26 +585,12 @@ def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
     return fit
 
 
-def _sopdt_fold(prob: Any, mode: str) -> Any:
+def _sopdt_fold(prob: Any) -> Any:
+    """Fold fitter of SOPDT on fold deviation data (the problem's operating-point mode kept)."""
+    from thermogym.identification.pem import _sopdt_fit, _sub_problem
+
     def fit(us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]]) -> Any:
-        names = prob.inputs + prob.disturbances
-        recs = []
-        for k, (u, y) in enumerate(zip(us, ys, strict=True)):
-            cols = {c: u[:, i] for i, c in enumerate(names)}
-            cols.update({c: y[:, j] for j, c in enumerate(prob.outputs)})
-            roles = {c: "disturbance" for c in prob.disturbances}
-            recs.append(
-                Recording(
-                    prob.dt * np.arange(u.shape[0]), cols, roles=roles, experiment_id=f"fold{k}"
-                )
-            )
-        r = sopdt(
-            recs,
-            names,
-            prob.outputs,
-            disturbances=prob.disturbances,
-            operating_point_mode="none",  # fold data are deviations already
-        )
-        return r.model, r.theta
+        model, th, _, _ = _sopdt_fit(_sub_problem(prob, us, ys), None, 100)
+        return model, th[None]
 
     return fit

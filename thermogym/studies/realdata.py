@@ -47,7 +47,12 @@ import numpy as np
 from thermogym.datasets import load
 from thermogym.errors import UnknownNameError
 from thermogym.fitresult import FitResult
-from thermogym.identification.crossval import OrderCV, cross_validate_order, split_recording
+from thermogym.identification.crossval import (
+    OrderCV,
+    cross_validate_order,
+    deviation_recordings,
+    split_recording,
+)
 from thermogym.identification.foptd import fit_foptd
 from thermogym.identification.n4sid import n4sid
 from thermogym.identification.prepare import prepare
@@ -257,14 +262,18 @@ def identify_case(case: Case | str, *, orders: Sequence[int] | None = None) -> C
         validate=vals,
     )
     t2 = time.perf_counter()
-    folds = split_recording(train[0], 2) if len(train) == 1 else train
     op = c.n4sid_operating_point or c.operating_point
+    # folds about each whole recording's operating point (a half of a run from rest does
+    # not start at rest)
+    dev = deviation_recordings(train, list(c.inputs), list(c.outputs), op)
+    folds = split_recording(dev[0], 2) if len(dev) == 1 else dev
     cv = cross_validate_order(
         folds,
         list(c.inputs),
         list(c.outputs),
         orders or c.orders,
         operating_point_mode=op,
+        deviations=True,
     )
     ss = n4sid(
         train,
