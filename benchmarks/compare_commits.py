@@ -222,7 +222,9 @@ def main() -> None:
         f"load (1/5/15 min) before {load0[0]:.2f}/{load0[1]:.2f}/{load0[2]:.2f}, "
         f"after {load1[0]:.2f}/{load1[1]:.2f}/{load1[2]:.2f}; {os.cpu_count()} cores"
     )
-    print(f"{'figure (per second, best of rounds)':44s} {'base':>12s} {'new':>12s} {'new/base':>9s}")
+    print(
+        f"{'figure (per second, best of rounds)':44s} {'base':>12s} {'new':>12s} {'new/base':>9s}"
+    )
     ratios = {}
     for key in best["base"]:
         b, n = best["base"][key], best["new"].get(key, float("nan"))

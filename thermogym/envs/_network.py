@@ -16,7 +16,7 @@ A network with nonlinear effects (a FitResult of a model with
 ``input_nonlinearity``, ``input_dependent_heat_transfer``,
 ``nonlinear_heat_transfer``, ``time_varying_parameter``) is advanced instead
 by the network's own compiled fixed-step RK4 kernel
-(:func:`thermogym.models.thermal_network._rk4_kernel`) before the step kernel
+(:meth:`thermogym.models.thermal_network.ThermalNetworkModel.integrate`) before the step kernel
 measures and rewards.
 
 With ``plant="rig"`` (:func:`network_plant`) the engine steps the rig's true
@@ -40,7 +40,6 @@ from numpy.typing import NDArray
 from thermogym.envs._base import C_K, Engine
 from thermogym.envs._plant import ParamsLike, Plant, resolve_plant
 from thermogym.errors import ConfigError
-from thermogym.models import thermal_network as _tn
 from thermogym.models.linear import StateSpaceModel
 from thermogym.models.thermal_network import ThermalNetworkModel
 
@@ -216,8 +215,8 @@ class LTIEngine(Engine):
             H, h0 = C, np.zeros(C.shape[0])
             self.linear[b] = True
         else:
-            full = m._layout.full_theta(theta)  # type: ignore[attr-defined]
-            self.linear[b] = m._is_linear(full)  # type: ignore[attr-defined]
+            full = m.full_theta(theta)  # type: ignore[attr-defined]
+            self.linear[b] = m.is_linear(full)  # type: ignore[attr-defined]
             net = m.network(full)  # type: ignore[attr-defined]
             H, h0, D = net.H, net.h0[0], np.zeros((net.H.shape[0], 2))
             if self.linear[b]:
@@ -227,7 +226,7 @@ class LTIEngine(Engine):
                 Ad, Bd = np.eye(len(m.state_names)), np.zeros((len(m.state_names), 2))
                 self._nets[b] = (
                     net,
-                    m._effect_values(full),  # type: ignore[attr-defined]
+                    m.effect_values(full),  # type: ignore[attr-defined]
                     m.rk4_substeps(net, self._dt_ctrl, self.u_max),  # type: ignore[attr-defined]
                 )
         for j, col in enumerate(self.uidx):
@@ -283,27 +282,8 @@ class LTIEngine(Engine):
             U = np.empty((1, 2, 2))
             U[0, :, 0] = u[b, 0]
             U[0, :, 1] = u[b, 1]
-            y = np.empty((1, 2, net.H.shape[0]))
-            xs = np.empty((1, 2, self.x.shape[1]))
-            _tn._rk4_kernel(
-                np.ascontiguousarray(net.C),
-                np.ascontiguousarray(net.G),
-                np.ascontiguousarray(net.g_amb),
-                np.ascontiguousarray(net.q),
-                eff,
-                float(m.u_ref),  # type: ignore[attr-defined]
-                float(m.dT_ref),  # type: ignore[attr-defined]
-                m._forced_mask,  # type: ignore[attr-defined]
-                np.ascontiguousarray(net.H),
-                np.ascontiguousarray(net.h0),
-                np.ascontiguousarray(self.x[b : b + 1]),
-                U,
-                np.zeros((1, 1, 1)),
-                float(self.ctr[b, C_K] * self._dt_ctrl),
-                self._dt_ctrl,
-                int(nsub),
-                y,
-                xs,
-                True,
-            )
+            _, xs = m.integrate(  # type: ignore[attr-defined]
+                net, eff, self.x[b : b + 1], U, self._dt_ctrl, int(nsub),
+                t0=float(self.ctr[b, C_K] * self._dt_ctrl), return_states=True,
+            )  # fmt: skip
             self.x[b] = xs[0, 1]

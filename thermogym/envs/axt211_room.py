@@ -99,7 +99,6 @@ from __future__ import annotations
 import functools
 import math
 import os
-import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -109,8 +108,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from thermogym.envs import _kernels
-from thermogym.envs import kpis as _kpis
 from thermogym.envs._base import (
     C_CUR,
     C_K,
@@ -140,11 +137,10 @@ from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
 from thermogym.envs.profiles import synthetic_weather
 from thermogym.errors import ConfigError
-from thermogym.models import _integrators, _vmath
 from thermogym.models import axt211_dynamics as ax
+from thermogym.models import integrators
 from thermogym.models import room_dynamics as rd
-from thermogym.models._integrators import rk4_accumulate, rk4_finish, rk4_stage_input
-from thermogym.models._vmath import vpow
+from thermogym.models.integrators import rk4_accumulate, rk4_finish, rk4_stage_input
 from thermogym.models.room import RoomModel
 from thermogym.recording import Recording
 
@@ -499,10 +495,12 @@ def _powers(wb, W, kind):  # pragma: no cover - numba
     # the power laws of a stage, in a loop of their own (vpow: vectorises, as the scalar
     # kernel's)
     for i in range(W):
-        wb[_R_PW * W + i] = vpow(wb[_R_BASE * W + i], wb[(_NQA + rd.R_NR) * W + i])  # ^n_rad
+        wb[_R_PW * W + i] = rd.power_law(
+            wb[_R_BASE * W + i], wb[(_NQA + rd.R_NR) * W + i]
+        )  # ^n_rad
     if kind != 0:
         for i in range(W):
-            wb[_R_PWV * W + i] = vpow(wb[(_NQA + rd.R_RV) * W + i], wb[_R_EXPV * W + i])
+            wb[_R_PWV * W + i] = rd.power_law(wb[(_NQA + rd.R_RV) * W + i], wb[_R_EXPV * W + i])
 
 
 @nb.njit(cache=True, inline="always")
@@ -562,7 +560,7 @@ def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
     _stage_base(wb, W, i, nxt[2], y3 if last else xV, nxt[3], nxt[4], kind)
 
 
-_load6 = _integrators.loader(6)
+_load6 = integrators.loader(6)
 
 
 @nb.njit(cache=True, inline="always")
@@ -640,9 +638,6 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
 
     return lockstep, (st1, st2, st3, st4)
 
-
-#: Modules whose sources the compiled kernels of this module contain.
-_DEPS = (ax, rd, _integrators, _vmath, _kpis, _kernels)
 
 _BW = 32  # lanes of a full block (77 rows x 32 lanes x 8 B = 19 KiB: L1 cache)
 
@@ -795,7 +790,7 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                 )  # fmt: skip
         return status
 
-    step, step_parallel = block_steppers(rows, _BW, sys.modules[__name__], *_DEPS)
+    step, step_parallel = block_steppers(rows, _BW)
 
     @nb.njit
     def rollout(
@@ -835,12 +830,12 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
         return 0, n, total
 
     for k in (*([ls] if lockstep else []), *stage_loops, block, rows):
-        cache_depends_on(k, *_DEPS)
+        cache_depends_on(k)
     return _StepKernels(step, step_parallel, rollout)
 
 
 for _k in (_room_dyn, _room_post, _part):
-    cache_depends_on(_k, *_DEPS)
+    cache_depends_on(_k)
 
 
 class _RoomEngine(Engine):

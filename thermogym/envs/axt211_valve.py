@@ -85,7 +85,6 @@ from __future__ import annotations
 
 import functools
 import math
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -95,8 +94,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
-from thermogym.envs import _kernels
-from thermogym.envs import kpis as _kpis
 from thermogym.envs._base import (
     C_K,
     C_NTP,
@@ -123,7 +120,6 @@ from thermogym.envs._kernels import (
 from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs.kpis import _rainflow_tp, miner_damage, tp_finish, tp_update_at
 from thermogym.errors import ConfigError
-from thermogym.models import _integrators, _vmath
 from thermogym.models import axt211_dynamics as ax
 from thermogym.models.axt211 import AXT211
 
@@ -369,9 +365,6 @@ def _valve_post(
 # compile-time constant, so that LLVM sees the rows as disjoint and vectorises without
 # run-time alias checks (it refuses for separate arrays: too many checks).
 
-#: Modules whose sources the compiled kernels of this module contain.
-_DEPS = (ax, _integrators, _vmath, _kpis, _kernels)
-
 _BW = 64  # lanes of a full block: its 35 rows x 64 lanes x 8 B = 18 KiB stay in L1 cache
 _NQ = ax.N_COEF  # lane-table rows in a block (all but the plain flag)
 (_R_TP, _R_TG, _R_XP, _R_XV, _R_NON, _R_NTOT, _R_HON, _R_HOFF, _R_MQ, _R_CNT, _R_E, _R_P0,
@@ -547,15 +540,15 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
             )  # fmt: skip
         return status
 
-    step, step_parallel = block_steppers(rows, _BW, sys.modules[__name__], *_DEPS)
+    step, step_parallel = block_steppers(rows, _BW)
 
     for k in (block, rows):
-        cache_depends_on(k, *_DEPS)
+        cache_depends_on(k)
     return _StepKernels(step, step_parallel)
 
 
 for _k in (_dyn_scalar, _valve_post, _quad_point, _lockstep_bw):
-    cache_depends_on(_k, *_DEPS)
+    cache_depends_on(_k)
 
 
 class _ValveEngine(Engine):

@@ -72,7 +72,6 @@ Version History
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -82,8 +81,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from thermogym.envs import _kernels
-from thermogym.envs import _network as _nw
 from thermogym.envs._base import (
     C_K,
     ThermoEnv,
@@ -264,8 +261,8 @@ def _spindle_row(
     return 0
 
 
-cache_depends_on(_spindle_row, _nw, _kernels)
-_spindle_kernel, _spindle_parallel = plant_loops(_spindle_row, sys.modules[__name__], _nw, _kernels)
+cache_depends_on(_spindle_row)
+_spindle_kernel, _spindle_parallel = plant_loops(_spindle_row)
 
 
 class _SpindleEngine(LTIEngine):

@@ -62,7 +62,6 @@ Version History
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -72,8 +71,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from thermogym.envs import _kernels
-from thermogym.envs import _network as _nw
 from thermogym.envs._base import (
     C_K,
     ThermoEnv,
@@ -244,8 +241,8 @@ def _strut_row(
     return 0
 
 
-cache_depends_on(_strut_row, _nw, _kernels)
-_strut_kernel, _strut_parallel = plant_loops(_strut_row, sys.modules[__name__], _nw, _kernels)
+cache_depends_on(_strut_row)
+_strut_kernel, _strut_parallel = plant_loops(_strut_row)
 
 
 class _StrutEngine(LTIEngine):

@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from scipy import stats
 from scipy.ndimage import uniform_filter1d
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError, RecordingError, ShapeError
 from thermogym.fitresult import FitResult, data_entry
 from thermogym.identification.coordinator import IdentificationResult, run_identification
@@ -48,8 +49,8 @@ from thermogym.identification.problem import FreeParameter, Problem
 from thermogym.identification.simmodel import SimBatch
 from thermogym.identification.uncertainty import covariance_from_jacobian, estimate_input_noise
 from thermogym.models import axt211_dynamics as ax
-from thermogym.models._integrators import rk4_accumulate, rk4_finish, rk4_stage_input
 from thermogym.models.axt211 import AXT211, AXT211_PARAMETERS, ptc_resistance
+from thermogym.models.integrators import rk4_accumulate, rk4_finish, rk4_stage_input
 from thermogym.recording import Recording
 
 __all__ = [
@@ -804,3 +805,7 @@ def _xi_submodels(params: dict[str, float], rec: Recording) -> dict[str, float]:
         "thermal": float(accuracy_xi(rec["T_P"], sim.output("T_P")[0])),
         "mechanical": float(accuracy_xi(rec["x_V"], xv)),
     }
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

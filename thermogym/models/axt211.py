@@ -84,6 +84,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ShapeError
 from thermogym.models import axt211_dynamics as dyn
 from thermogym.models._effects import EffectLayout
@@ -349,3 +350,7 @@ class AXT211(Model):
     def full_theta(self, theta: NDArray[np.float64]) -> NDArray[np.float64]:
         """Kernel parameter vector including neutral values of absent effects."""
         return self._layout.full_theta(theta)
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

@@ -34,7 +34,7 @@ Variants
 --------
 :func:`rhs` is branch-free (selects, no jumps) so that a loop over systems vectorises;
 :func:`rhs_effects` adds the physical effects. :func:`step` and :func:`step_effects` are
-one RK4 step of either (:mod:`thermogym.models._integrators`), followed by the end stops
+one RK4 step of either (:mod:`thermogym.models.integrators`), followed by the end stops
 and (20) (:func:`constrain`). For parameter sets without an active effect both give the
 same bits, so the scalar kernel, the batched kernels and the lanes agree bit for bit.
 :func:`rhs_partials` gives the partial derivatives of (14)-(21) for the sensitivities.
@@ -48,10 +48,11 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.models._effects import PhysicalEffect
-from thermogym.models._integrators import loader, rk4_step
 from thermogym.models._vmath import vmax, vmin
 from thermogym.models.base import Parameter, Signal
+from thermogym.models.integrators import loader, rk4_step
 
 __all__ = [
     "AXT211_EFFECTS",
@@ -77,9 +78,9 @@ __all__ = [
     "rhs",
     "rhs_effects",
     "rhs_partials",
-    "stroke_rate",
     "step",
     "step_effects",
+    "stroke_rate",
 ]
 
 _P = (
@@ -326,8 +327,11 @@ def ptc_polynomial(T: float, r: tuple) -> tuple[float, float]:  # type: ignore[t
 
 @nb.njit(cache=True, inline="always")
 def resistance(TP: float, q: tuple) -> float:  # type: ignore[type-arg]
-    """R_PTC (14) at ``T_P``: the polynomial clamped to [30, 101] °C plus the linear
-    extension above 101 °C (adds exactly 0.0 below it); branch-free."""
+    """R_PTC (14) at ``T_P``, branch-free.
+
+    The polynomial at T_P clamped to [30, 101] °C plus the linear extension above 101 °C
+    (which adds exactly 0.0 below it).
+    """
     tau = (vmin(vmax(TP, T_LO), T_HI) - 65.0) / 35.0
     R = (
         (((q[Q_R0 + 5] * tau + q[Q_R0 + 4]) * tau + q[Q_R0 + 3]) * tau + q[Q_R0 + 2]) * tau
@@ -375,8 +379,11 @@ def rhs(x: tuple, args: tuple) -> tuple:  # type: ignore[type-arg]
 
 @nb.njit(cache=True, inline="always")
 def rhs_effects(x: tuple, args: tuple) -> tuple:  # type: ignore[type-arg]
-    """:func:`rhs` with the physical effects; ``args = (v2, T_U, q, e)``, ``e`` from
-    :func:`effect_coefficients`. With neutral effect values it gives :func:`rhs`'s bits."""
+    """:func:`rhs` with the physical effects.
+
+    ``args = (v2, T_U, q, e)``, ``e`` from :func:`effect_coefficients`. With neutral
+    effect values it gives :func:`rhs`'s bits.
+    """
     TP, TG, xP = x
     v2, TU, q, e = args
     R = resistance(TP, q)
@@ -396,8 +403,11 @@ def rhs_effects(x: tuple, args: tuple) -> tuple:  # type: ignore[type-arg]
 
 @nb.njit(cache=True, inline="always")
 def backlash(xP: float, xV_prev: float, c: float, xmax: float) -> float:
-    """(20): the rod follows the cartridge once the play of half-width ``c`` is taken up;
-    the valve stroke stays in [0, x_max]. Branch-free."""
+    """Valve stroke by the backlash (20), branch-free.
+
+    The rod follows the cartridge once the play of half-width ``c`` is taken up; the
+    valve stroke stays in [0, x_max].
+    """
     xV = xP + c if xP < xV_prev - c else (xP - c if xP > xV_prev + c else xV_prev)
     return vmin(vmax(xV, 0.0), xmax)
 
@@ -415,8 +425,11 @@ _rk4_effects = rk4_step(rhs_effects)
 
 @nb.njit(cache=True, inline="always")
 def step(x: tuple, v2: float, TU: float, h: float, q: tuple) -> tuple:  # type: ignore[type-arg]
-    """One RK4 step of length ``h`` without effects: ``x = (T_P, T_G, x_P, x_V)`` to the
-    next, and R_PTC at ``x``. Branch-free (loops over systems vectorise)."""
+    """One RK4 step of length ``h`` without effects, branch-free.
+
+    ``x = (T_P, T_G, x_P, x_V)`` to the next state, and R_PTC at ``x``. Loops over
+    systems calling it vectorise.
+    """
     (TP, TG, xP), R = _rk4((x[0], x[1], x[2]), h, (v2, TU, q))
     xP, xV = constrain(xP, x[3], q)
     return (TP, TG, xP, xV), R
@@ -435,7 +448,8 @@ def coefficients(p: NDArray[np.float64]) -> tuple:  # type: ignore[type-arg]
     """The :data:`COEFFICIENTS` of one full parameter vector ``p``."""
     r = (p[I_R0], p[I_R0 + 1], p[I_R0 + 2], p[I_R0 + 3], p[I_R0 + 4], p[I_R0 + 5])
     c = p[I_C]
-    return r + (
+    return (
+        *r,
         ptc_polynomial(T_HI, r)[1], p[I_LPG], p[I_LGU], 1.0 / p[I_CP], 1.0 / p[I_CG],
         p[I_KA], p[I_KB], p[I_KC], p[I_T0], 1.0 / p[I_TAU], -c, p[I_XMAX] + c, c, p[I_XMAX],
     )  # fmt: skip
@@ -443,8 +457,11 @@ def coefficients(p: NDArray[np.float64]) -> tuple:  # type: ignore[type-arg]
 
 @nb.njit(cache=True, inline="always")
 def effect_coefficients(p: NDArray[np.float64]) -> tuple:  # type: ignore[type-arg]
-    """Constants of the physical effects: latent heat, melting point and width, convection
-    exponent, source resistance, and C_P (the latent heat adds to it)."""
+    """Constants of the physical effects of a full parameter vector ``p``.
+
+    Latent heat, melting point and width, convection exponent, source resistance, and
+    C_P (the latent heat adds to it).
+    """
     return (p[I_L], p[I_TM], p[I_WM], p[I_NCONV], p[I_RS], p[I_CP])
 
 
@@ -465,8 +482,10 @@ def lane_column(p: NDArray[np.float64], out: NDArray[np.float64], b: int) -> Non
 
 @nb.njit(cache=True, inline="always")
 def advance(x: tuple, v2: float, TU: float, h: float, n: int, q: tuple, e: tuple) -> tuple:  # type: ignore[type-arg]
-    """``n`` RK4 steps of length ``h`` of one system, physical effects included:
-    ``x = (T_P, T_G, x_P, x_V)`` to the state after them (inputs held)."""
+    """``n`` RK4 steps of length ``h`` of one system, physical effects included.
+
+    ``x = (T_P, T_G, x_P, x_V)`` to the state after them (inputs held).
+    """
     for _ in range(n):
         x, _R = step_effects(x, v2, TU, h, q, e)
     return x
@@ -474,8 +493,10 @@ def advance(x: tuple, v2: float, TU: float, h: float, n: int, q: tuple, e: tuple
 
 @nb.njit(cache=True, inline="always")
 def outputs(x: tuple, v2: float, q: tuple, Rs: float) -> tuple:  # type: ignore[type-arg]
-    """Outputs ``(P_PTC, R_PTC, T_P, T_G, x_P, x_V)`` of state ``x`` (15), (14);
-    ``Rs`` the source resistance (0 without the supply_variation effect)."""
+    """Outputs ``(P_PTC, R_PTC, T_P, T_G, x_P, x_V)`` of state ``x`` (15), (14).
+
+    ``Rs`` is the source resistance (0 without the supply_variation effect).
+    """
     R = resistance(x[0], q)
     return (power(v2, R, Rs), R, x[0], x[1], x[2], x[3])
 
@@ -543,3 +564,7 @@ def rhs_partials(x: tuple, v2: float, TU: float, q: tuple) -> tuple:  # type: ig
         -s * f[2] * itau,
     )  # fmt: skip
     return f, R, stopped, J, d
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

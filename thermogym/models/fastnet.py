@@ -127,8 +127,8 @@ class SwitchedNetwork(Model):
 
     def _simulate(self, theta, u, dt, x0, return_states):
         p = self.plant
-        full = p._layout.full_theta(theta)
-        eff = p._effect_values(full)  # alpha, beta, gamma, drift per set
+        full = p.full_theta(theta)
+        eff = p.effect_values(full)  # alpha, beta, gamma, drift per set
         B, T = theta.shape[0], u.shape[1]
         nu = len(p.inputs)
         ub = np.array(np.broadcast_to(u, (B, *u.shape[1:])), dtype=float, copy=True)
@@ -144,7 +144,7 @@ class SwitchedNetwork(Model):
                     v = v * (1.0 + d * t_mid / 3600.0)  # q (1 + δ t/1 h), mid-interval
                 ub[b, :, k] = v
         net = p.network(full)
-        mask = p._forced_mask.astype(float)
+        mask = p.forced_mask.astype(float)
         # the conductance factor depends on |u_1| only: one discretisation per distinct level
         levels = np.unique(np.round(np.abs(np.asarray(u)[..., 0]), 9))
         if levels.size > _MAX_LEVELS:
@@ -222,16 +222,16 @@ class LossNetwork(SwitchedNetwork):
     def substeps(self, theta: NDArray[np.float64], dt: float) -> int:
         """RK4 sub-steps per sample [-] for the parameter sets ``theta`` (B, P)."""
         p = self.plant
-        full = p._layout.full_theta(theta)
+        full = p.full_theta(theta)
         A, _ = network_matrices(p.network(full))
         rho = max(float(np.max(np.abs(np.linalg.eigvals(a)))) for a in A)
-        gam = max(float(np.max(p._effect_values(full)[:, 2])), 0.0)
+        gam = max(float(np.max(p.effect_values(full)[:, 2])), 0.0)
         return max(1, math.ceil(dt * rho * (1.0 + 2.0 * gam * _DT_SPAN / p.dT_ref)))
 
     def _simulate(self, theta, u, dt, x0, return_states):
         p = self.plant
         # γ = 0: the plant's exact discretisation; otherwise its RK4 with these sub-steps
-        nsub = None if p._is_linear(p._layout.full_theta(theta)) else self.substeps(theta, dt)
+        nsub = None if p.is_linear(p.full_theta(theta)) else self.substeps(theta, dt)
         return p.simulate_network(theta, u, dt, x0, return_states=return_states, substeps=nsub)
 
 

@@ -185,12 +185,12 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError, ParameterError, ShapeError
 from thermogym.models import axt211_dynamics as ax
 from thermogym.models import room_dynamics as dyn
 from thermogym.models._effects import EffectLayout
 from thermogym.models.axt211_dynamics import AXT211_EFFECTS, AXT211_PARAMETERS
-from thermogym.models._vmath import vpow
 from thermogym.models.base import Model
 from thermogym.models.room_dynamics import ROOM_PARAMETERS, ROOM_SIGNALS, T_DESIGN
 
@@ -205,7 +205,7 @@ _NX, _NY = 7, 10
 @nb.njit(cache=True, inline="always")
 def _valve(h: float, Rv: float, kind: int) -> float:
     # relative flow φ(h) of dyn.flow for a rangeability R_v (valve_flow)
-    pwv = vpow(Rv, h - 1.0) if kind != 0 else 0.0
+    pwv = dyn.power_law(Rv, h - 1.0) if kind != 0 else 0.0
     return dyn.flow(h, pwv, Rv ** (dyn.H0 - 1.0), kind)
 
 
@@ -621,3 +621,6 @@ class RoomModel(Model):
 
 MODELS = {"room": RoomModel}
 
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

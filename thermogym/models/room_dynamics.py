@@ -13,7 +13,7 @@ as its environment. The equations and the choices behind them are in the docstri
     C_a dT_zone/dt = Q_heat + f_int Q_int + H_as (T_struct − T_zone) + H_ao (T_out − T_zone)
     C_s dT_struct/dt = H_as (T_zone − T_struct) + H_so (T_out − T_struct) + (1 − f_int) Q_int
 
-The two power laws are evaluated by :func:`~thermogym.models._vmath.vpow` (vectorises);
+The two power laws are evaluated by :func:`power_law` (vectorises);
 :func:`rates` takes their values as arguments, so that a lockstep kernel can evaluate them
 in loops of their own, while :func:`rhs` evaluates them itself. Within an RK4 step the
 valve sees (20) applied to each stage's ``x_P`` with the valve stroke of the step start.
@@ -31,11 +31,12 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.models import axt211_dynamics as ax
-from thermogym.models._integrators import loader, rk4_step
 from thermogym.models._vmath import vpow
 from thermogym.models.axt211_dynamics import AXT211_SIGNALS
 from thermogym.models.base import Parameter, Signal
+from thermogym.models.integrators import loader, rk4_step
 
 __all__ = [
     "COEFFICIENTS",
@@ -49,10 +50,11 @@ __all__ = [
     "emission_base",
     "flow",
     "heat",
-    "lane_rhs",
     "lane_column",
+    "lane_rhs",
     "load_coefficients",
     "outputs",
+    "power_law",
     "rates",
     "rhs",
     "step",
@@ -284,6 +286,16 @@ load_coefficients = loader(N_COEF)
 
 # ----------------------------------------------------------------------------- equations
 @nb.njit(cache=True, inline="always")
+def power_law(x: float, y: float) -> float:
+    """``x ** y`` of the emission and valve laws, branch-free.
+
+    Every variant evaluates the power laws with it (``_vmath.vpow``: a loop calling it
+    vectorises).
+    """
+    return vpow(x, y)
+
+
+@nb.njit(cache=True, inline="always")
 def supply(Tout: float, p: NDArray[np.float64]) -> float:
     """Heating curve: supply temperature, linear in T_out between T_out_d and 20 °C, clipped."""
     Td = p[I_TOD]
@@ -312,9 +324,11 @@ def valve_stroke(xP: float, xV0: float, q: tuple, r: tuple) -> float:  # type: i
 
 @nb.njit(cache=True, inline="always")
 def flow(h: float, pwv: float, RvH: float, kind: int) -> float:
-    """Relative flow φ(h): linear (``kind`` 0), or equal percentage with ``pwv`` =
-    R_v^(h − 1), ``RvH`` = R_v^(h_0 − 1) and a linear leak-off below h_0; 0 shut, 1 fully
-    open. Branch-free."""
+    """Relative flow φ(h) of the valve, branch-free.
+
+    Linear (``kind`` 0), or equal percentage with ``pwv`` = R_v^(h − 1), ``RvH`` =
+    R_v^(h_0 − 1) and a linear leak-off below h_0; 0 shut, 1 fully open.
+    """
     phi = h if kind == 0 else (h / _H0 * RvH if h < _H0 else pwv)
     return 0.0 if h <= 0.0 else (1.0 if h >= 1.0 else phi)
 
@@ -341,10 +355,12 @@ def lane_rhs(
     x: tuple, xV0: float, v2: float, Tsup: float, Tout: float, Qint: float, Q: float,
     pwv: float, q: tuple, r: tuple, kind: int,  # type: ignore[type-arg]
 ) -> tuple:  # type: ignore[type-arg]  # fmt: skip
-    """Right-hand side without actuator effects, given the stage's power laws (the
-    emission ``Q`` and ``pwv`` = R_v^(h − 1)), branch-free: for lockstep kernels that
-    evaluate the power laws in loops of their own. ``x = (T_P, T_G, x_P, T_rad, T_zone,
-    T_struct)``; returns the derivatives and R_PTC."""
+    """Right-hand side without actuator effects, given the stage's power laws.
+
+    ``Q`` is the emission and ``pwv`` = R_v^(h − 1): lockstep kernels evaluate the power
+    laws in loops of their own. Branch-free. ``x = (T_P, T_G, x_P, T_rad, T_zone,
+    T_struct)``; returns the derivatives and R_PTC.
+    """
     TP, TG, xP, Tr, Ta, Ts = x
     (dTP, dTG, dxP), R = ax.rhs((TP, TG, xP), (v2, Ta, q))  # (17)-(19), T_U = T_zone
     phi = flow(valve_stroke(xP, xV0, q, r), pwv, r[R_RVH], kind)
@@ -354,14 +370,17 @@ def lane_rhs(
 
 @nb.njit(cache=True, inline="always")
 def rhs(x: tuple, args: tuple) -> tuple:  # type: ignore[type-arg]
-    """Right-hand side with actuator effects; ``args = (x_V0, v2, T_sup, T_out, Q_int, q,
-    r, e, kind)``. Returns the derivatives and ``(R_PTC, Q_heat)``."""
+    """Right-hand side of the room with actuator effects.
+
+    ``x = (T_P, T_G, x_P, T_rad, T_zone, T_struct)``, ``args = (x_V0, v2, T_sup, T_out,
+    Q_int, q, r, e, kind)``. Returns the derivatives and ``(R_PTC, Q_heat)``.
+    """
     TP, TG, xP, Tr, Ta, Ts = x
     xV0, v2, Tsup, Tout, Qint, q, r, e, kind = args
     (dTP, dTG, dxP), R = ax.rhs_effects((TP, TG, xP), (v2, Ta, q, e))  # T_U = T_zone
     h = valve_stroke(xP, xV0, q, r)
-    pwv = vpow(r[R_RV], h - 1.0) if kind != 0 else 0.0
-    Q = emission(Tr, Ta, vpow(emission_base(Tr, Ta, r), r[R_NR]), r)
+    pwv = power_law(r[R_RV], h - 1.0) if kind != 0 else 0.0
+    Q = emission(Tr, Ta, power_law(emission_base(Tr, Ta, r), r[R_NR]), r)
     dTr, dTa, dTs = rates(Tr, Ta, Ts, flow(h, pwv, r[R_RVH], kind), Q, Tsup, Tout, Qint, r)
     return (dTP, dTG, dxP, dTr, dTa, dTs), (R, Q)
 
@@ -374,8 +393,10 @@ def step(
     x: tuple, v2: float, Tsup: float, Tout: float, Qint: float, h: float, q: tuple,
     r: tuple, e: tuple, kind: int,  # type: ignore[type-arg]
 ) -> tuple:  # type: ignore[type-arg]  # fmt: skip
-    """One RK4 step of all seven states ``x = (T_P, T_G, x_P, x_V, T_rad, T_zone,
-    T_struct)``, then the end stops and (20) as the AXT211's."""
+    """One RK4 step of all seven states, then the end stops and (20) as the AXT211's.
+
+    ``x = (T_P, T_G, x_P, x_V, T_rad, T_zone, T_struct)``.
+    """
     (TP, TG, xP, Tr, Ta, Ts), _aux = _rk4(
         (x[0], x[1], x[2], x[4], x[5], x[6]), h, (x[3], v2, Tsup, Tout, Qint, q, r, e, kind)
     )
@@ -397,7 +418,7 @@ def advance(
 @nb.njit(cache=True, inline="always")
 def heat(Tr: float, Ta: float, r: tuple) -> float:  # type: ignore[type-arg]
     """Q_heat at radiator temperature ``Tr`` and zone temperature ``Ta``."""
-    return emission(Tr, Ta, vpow(emission_base(Tr, Ta, r), r[R_NR]), r)
+    return emission(Tr, Ta, power_law(emission_base(Tr, Ta, r), r[R_NR]), r)
 
 
 @nb.njit(cache=True, inline="always")
@@ -427,3 +448,7 @@ def lane_column(p: NDArray[np.float64], out: NDArray[np.float64], b: int) -> Non
     for j in range(N_COEF):
         out[LANE_ROOM + j, b] = r[j]
     out[LANE_PLAIN, b] = 1.0 if ax.is_plain(p) else 0.0
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

@@ -46,11 +46,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ShapeError
 from thermogym.identification.simmodel import ThermogymModel
 from thermogym.models import axt211_dynamics as ax
-from thermogym.models._integrators import rk4_accumulate, rk4_finish, rk4_stage_input
 from thermogym.models.axt211 import AXT211, AXT211_PARAMETERS
+from thermogym.models.integrators import rk4_accumulate, rk4_finish, rk4_stage_input
 from thermogym.models.thermal_network import ThermalNetworkModel, lti_simulate, network_matrices
 from thermogym.recording import Recording
 
@@ -254,7 +255,7 @@ def _rhs_sens(x, S, v2, TU, q, K, pos, prow, ppar):  # pragma: no cover - numba
 
     Column ``pos[i]`` of S and K is the derivative wrt parameter ``i`` (−1: not tracked).
     """
-    f, _R, stopped, J, d = ax.rhs_partials(x, v2, TU, q)
+    f, _R, _stopped, J, d = ax.rhs_partials(x, v2, TU, q)
     for j in range(K.shape[1]):
         K[0, j] = J[0] * S[0, j] + J[1] * S[1, j]
         K[1, j] = J[2] * S[0, j] + J[3] * S[1, j]
@@ -409,3 +410,7 @@ def axt211_sensitivities(
         _PART_PAR,
     )
     return y, dy
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

@@ -42,7 +42,7 @@ def _generate(name: str, n: int, args: str, item: str) -> Callable[..., Any]:
     if key not in _GENERATED:
         body = "".join(item.format(i=i) + ", " for i in range(n))
         ns: dict[str, Any] = {}
-        exec(f"def {name}({args}):\n    return ({body})\n", ns)  # noqa: S102 - fixed template
+        exec(f"def {name}({args}):\n    return ({body})\n", ns)
         _GENERATED[key] = ns[name]
     return _GENERATED[key]
 
