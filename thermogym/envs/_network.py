@@ -41,9 +41,10 @@ from thermogym.envs._base import C_K, Engine
 from thermogym.envs._plant import ParamsLike, Plant, resolve_plant
 from thermogym.errors import ConfigError
 from thermogym.models.linear import StateSpaceModel
+from thermogym.models.lti import lti_output, lti_update
 from thermogym.models.thermal_network import ThermalNetworkModel
 
-__all__ = ["LTIEngine", "lti_update", "network_plant"]
+__all__ = ["LTIEngine", "lti_output", "lti_step", "network_plant"]
 
 
 def network_plant(
@@ -80,29 +81,13 @@ def network_plant(
 
 
 @nb.njit(cache=True, inline="always")
-def lti_update(x, u, Ad, Bd, tmp):  # pragma: no cover - numba
-    """``x ← A_d x + B_d u`` for one plant (``tmp`` is scratch of length n)."""
-    n = x.shape[0]
-    for i in range(n):
-        s = 0.0
-        for j in range(n):
-            s += Ad[i, j] * x[j]
-        for j in range(u.shape[0]):
-            s += Bd[i, j] * u[j]
-        tmp[i] = s
-    for i in range(n):
+def lti_step(x, u, At, Bt, tmp):  # pragma: no cover - numba
+    """``x ← A_d x + B_d u`` for one plant in place (:func:`thermogym.models.lti.lti_update`;
+    transposed matrices, ``tmp`` is scratch of length n).
+    """
+    lti_update(At, Bt, x, u, tmp)
+    for i in range(x.shape[0]):
         x[i] = tmp[i]
-
-
-@nb.njit(cache=True, inline="always")
-def lti_output(x, u, H, D, h0, i):  # pragma: no cover - numba
-    """Output ``i`` of ``y = H x + D u + h_0``."""
-    s = h0[i]
-    for j in range(x.shape[0]):
-        s += H[i, j] * x[j]
-    for j in range(u.shape[0]):
-        s += D[i, j] * u[j]
-    return s
 
 
 class LTIEngine(Engine):
@@ -174,10 +159,11 @@ class LTIEngine(Engine):
             self._rig_specs: dict[int, Any] = {}
             nx = ny
         self.x = np.zeros((B, nx))
-        self.Ad = np.zeros((B, nx, nx))
-        self.Bd = np.zeros((B, nx, 2))
-        self.Hm = np.zeros((B, ny, nx))
-        self.Dm = np.zeros((B, ny, 2))
+        # the plant's discrete matrices, transposed (the layout of thermogym.models.lti)
+        self.At = np.zeros((B, nx, nx))
+        self.Bt = np.zeros((B, 2, nx))
+        self.Ct = np.zeros((B, nx, ny))
+        self.Dt = np.zeros((B, 2, ny))
         self.h0 = np.zeros((B, ny))
         self.linear = np.ones(B, dtype=np.bool_)
         self.all_linear = True
@@ -199,10 +185,10 @@ class LTIEngine(Engine):
             # the rig's outputs are the state: y = x, advanced by the rig, not by (A_d, B_d)
             n = self.x.shape[1]
             self.linear[b] = False
-            self.Ad[b] = np.eye(n)
-            self.Bd[b] = 0.0
-            self.Hm[b] = np.eye(n)
-            self.Dm[b] = 0.0
+            self.At[b] = np.eye(n)
+            self.Bt[b] = 0.0
+            self.Ct[b] = np.eye(n)
+            self.Dt[b] = 0.0
             self.h0[b] = 0.0
             self.all_linear = False
             return
@@ -231,13 +217,13 @@ class LTIEngine(Engine):
                 )
         for j, col in enumerate(self.uidx):
             if col >= 0:
-                self.Bd[b, :, j] = Bd[:, col]
-                self.Dm[b, :, j] = D[self.oidx, col]
+                self.Bt[b, j] = Bd[:, col]
+                self.Dt[b, j] = D[self.oidx, col]
             else:
-                self.Bd[b, :, j] = 0.0
-                self.Dm[b, :, j] = 1.0  # outputs are rises: add the ambient
-        self.Ad[b] = Ad
-        self.Hm[b] = H[self.oidx]
+                self.Bt[b, j] = 0.0
+                self.Dt[b, j] = 1.0  # outputs are rises: add the ambient
+        self.At[b] = Ad.T
+        self.Ct[b] = H[self.oidx].T
         self.h0[b] = h0[self.oidx]
         self.all_linear = bool(self.linear.all())
 
@@ -263,7 +249,7 @@ class LTIEngine(Engine):
             # a network at rest: every node at the air temperature
             return np.full(self.x.shape[1], float(u0[1]))
         n = self.x.shape[1]
-        return np.linalg.solve(np.eye(n) - self.Ad[b], self.Bd[b] @ u0)
+        return np.linalg.solve(np.eye(n) - self.At[b].T, self.Bt[b].T @ u0)
 
     def advance_nonlinear(self, u: NDArray[np.float64]) -> None:
         """RK4 step of the active plants whose network is nonlinear (``u``: (B, 2))."""

@@ -30,8 +30,10 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError
 from thermogym.models.base import Model, Parameter
+from thermogym.models.lti import lti_output, lti_update, transposed
 from thermogym.models.thermal_network import (
     NetworkArrays,
     ThermalNetworkModel,
@@ -55,30 +57,23 @@ def _zoh(
 
 
 @nb.njit(cache=True)
-def _switched_kernel(Ad, Bd, H, h0, x0, U, seg, y):  # pragma: no cover - numba
+def _switched_kernel(At, Bt, Ht, h0, x0, U, seg, y):  # pragma: no cover - numba
+    # transposed matrices per level (thermogym.models.lti); y = H x + h0
     B, T = y.shape[0], y.shape[1]
-    n, m, ny = Ad.shape[2], Bd.shape[3], H.shape[0]
+    n = At.shape[2]
     x = np.empty(n)
     xn = np.empty(n)
+    no_u = np.empty(0)
+    no_D = np.empty((0, Ht.shape[1]))
     for b in range(B):
         x[:] = x0[b]
         ub = U[b if U.shape[0] > 1 else 0]
         for k in range(T):
-            for i in range(ny):
-                s = h0[b, i]
-                for j in range(n):
-                    s += H[i, j] * x[j]
-                y[b, k, i] = s
+            lti_output(Ht, no_D, h0[b], x, no_u, y[b, k])
             if k + 1 == T:
                 break
             lv = seg[b if seg.shape[0] > 1 else 0, k]
-            for i in range(n):
-                s = 0.0
-                for j in range(n):
-                    s += Ad[b, lv, i, j] * x[j]
-                for j in range(m):
-                    s += Bd[b, lv, i, j] * ub[k, j]
-                xn[i] = s
+            lti_update(At[b, lv], Bt[b, lv], x, ub[k], xn)
             x[:] = xn
 
 
@@ -166,9 +161,9 @@ class SwitchedNetwork(Model):
         Ad, Bd = Ad.reshape(B, L, n, n), Bd.reshape(B, L, n, m)
         y = np.empty((B, T, net.H.shape[0]))
         _switched_kernel(
-            np.ascontiguousarray(Ad),
-            np.ascontiguousarray(Bd),
-            np.ascontiguousarray(net.H),
+            transposed(Ad),
+            transposed(Bd),
+            transposed(net.H),
             np.ascontiguousarray(net.h0),
             np.ascontiguousarray(x0),
             np.ascontiguousarray(ub),
@@ -359,3 +354,7 @@ class ExtraNodeNetwork(Model):
     def _output(self, x, u, theta):
         net = self.arrays(theta)
         return np.einsum("ij,bj->bi", net.H, x) + net.h0
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

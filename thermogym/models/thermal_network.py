@@ -38,10 +38,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError
 from thermogym.models._blas import blas_threads
 from thermogym.models._effects import EffectLayout, PhysicalEffect
 from thermogym.models.base import Model, Parameter, Signal
+from thermogym.models.lti import lti_output, lti_update, transposed
 
 __all__ = [
     "NETWORK_EFFECTS",
@@ -191,28 +193,21 @@ def _discretise(
 
 
 @nb.njit(cache=True)
-def _lti_kernel(Ad, Bd, H, h0, x0, U, y, xs, keep):
+def _lti_kernel(At, Bt, Ht, h0, x0, U, y, xs, keep):  # pragma: no cover - numba
+    # transposed matrices (thermogym.models.lti); y = H x + h0 has no feedthrough
     Bn, T = U.shape[0], U.shape[1]
-    n, m, ny = Ad.shape[1], Bd.shape[2], H.shape[0]
+    n = At.shape[1]
     x = np.empty(n)
     xn = np.empty(n)
+    no_u = np.empty(0)
+    no_D = np.empty((0, Ht.shape[1]))
     for b in range(Bn):
         x[:] = x0[b]
         for k in range(T):
-            for i in range(ny):
-                s = h0[b, i]
-                for j in range(n):
-                    s += H[i, j] * x[j]
-                y[b, k, i] = s
+            lti_output(Ht, no_D, h0[b], x, no_u, y[b, k])
             if keep:
                 xs[b, k, :] = x
-            for i in range(n):
-                s = 0.0
-                for j in range(n):
-                    s += Ad[b, i, j] * x[j]
-                for j in range(m):
-                    s += Bd[b, i, j] * U[b, k, j]
-                xn[i] = s
+            lti_update(At[b], Bt[b], x, U[b, k], xn)
             x[:] = xn
 
 
@@ -246,9 +241,9 @@ def lti_simulate(
     y = np.empty((B, T, H.shape[0]))
     xs = np.empty((B, T, Ad.shape[1])) if return_states else np.empty((1, 1, Ad.shape[1]))
     _lti_kernel(
-        np.ascontiguousarray(Ad),
-        np.ascontiguousarray(Bd),
-        np.ascontiguousarray(H),
+        transposed(Ad),
+        transposed(Bd),
+        transposed(H),
         np.ascontiguousarray(h0),
         np.ascontiguousarray(x0),
         np.ascontiguousarray(U),
@@ -629,3 +624,7 @@ class ThermalNetworkModel(Model):
     def _output(self, x, u, theta):
         net = self.network(self._layout.full_theta(theta))
         return np.einsum("ij,bj->bi", net.H, x) + net.h0
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())
