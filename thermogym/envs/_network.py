@@ -82,8 +82,9 @@ def network_plant(
 
 @nb.njit(cache=True, inline="always")
 def lti_step(x, u, At, Bt, tmp):  # pragma: no cover - numba
-    """``x ← A_d x + B_d u`` for one plant in place (:func:`thermogym.models.lti.lti_update`;
-    transposed matrices, ``tmp`` is scratch of length n).
+    """``x ← A_d x + B_d u`` for one plant in place (transposed matrices).
+
+    :func:`thermogym.models.lti.lti_update`; ``tmp`` is scratch of length n.
     """
     lti_update(At, Bt, x, u, tmp)
     for i in range(x.shape[0]):
