@@ -34,7 +34,10 @@ valve stroke ``x_V`` over ``[0, x_max]`` (x_max = 4.5 mm).
 
 Integration: explicit classical Runge-Kutta 4 with a fixed step of at most
 ``max_step`` = 1 s (section III-A: fixed steps keep finite-difference Jacobians
-consistent); compiled with numba, one call for the whole batch.
+consistent); compiled with numba, one call for the whole batch. The equations are
+written once in :mod:`thermogym.models.axt211_dynamics` (with the parameter table);
+this module's kernels, the room model, the environments' lanes and the
+identification's sensitivities are all built from them.
 
 Parameter values
 ----------------
