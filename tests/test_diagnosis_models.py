@@ -218,7 +218,7 @@ def test_loss_network_needs_fewer_substeps_than_the_plants_bound():
     # only the loss nonlinearity is on; LossNetwork bounds it by γ (and stays stable)
     m = get_model("spindle", effects=["nonlinear_heat_transfer"])
     th = m.theta({"gamma_nl": 0.0})
-    net = m.network(m._layout.full_theta(th))
+    net = m.network(m.full_theta(th))
     fast = LossNetwork(m)
     assert fast.substeps(th, 120.0) < m.rk4_substeps(net, 120.0, 8000.0)
     assert fast.substeps(m.theta({"gamma_nl": 1.0}), 120.0) > fast.substeps(th, 120.0)

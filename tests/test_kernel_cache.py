@@ -82,16 +82,22 @@ def test_stable_key_describes_kernels_by_name_and_constants():
 
 
 def test_a_kernel_is_recompiled_when_a_module_it_inlines_changes(tmp_path):
-    # module_kernels_depend_on: numba alone keys a.f's cache on a.py only, and would load
-    # the stale machine code of b.g after b.py changed
-    (tmp_path / "b.py").write_text(
-        "import numba as nb\n\n@nb.njit(cache=True, inline='always')\ndef g(x):\n"
+    # module_kernels_depend_on(globals()) derives the dependencies: numba alone keys a.f's
+    # cache on a.py only, and would load the stale machine code of b.g and c.h after b.py
+    # or c.py changed. a reaches b as a module attribute, b reaches c by a name imported
+    # from it; nothing lists either by hand
+    (tmp_path / "c.py").write_text(
+        "import numba as nb\n\n@nb.njit(cache=True, inline='always')\ndef h(x):\n"
         "    return x + 1.0\n"
+    )
+    (tmp_path / "b.py").write_text(
+        "import numba as nb\nfrom c import h\n\n@nb.njit(cache=True, inline='always')\n"
+        "def g(x):\n    return h(x) * 1.0\n"
     )
     (tmp_path / "a.py").write_text(
         "import numba as nb\nimport b\nfrom thermogym._jitcache import module_kernels_depend_on\n"
         "\n@nb.njit(cache=True)\ndef f(x):\n    return b.g(x) * 2.0\n\n"
-        "module_kernels_depend_on(globals(), b)\n"
+        "module_kernels_depend_on(globals())\n"
     )
     env = {
         **os.environ,
@@ -99,14 +105,40 @@ def test_a_kernel_is_recompiled_when_a_module_it_inlines_changes(tmp_path):
         "PYTHONPATH": str(tmp_path) + os.pathsep + os.environ.get("PYTHONPATH", ""),
     }
 
-    def run() -> float:
+    def run() -> tuple[float, int]:
         out = subprocess.run(
-            [sys.executable, "-c", "import a; print(a.f(1.0))"],
+            [
+                sys.executable, "-c",
+                "import a, json; v = a.f(1.0); "
+                "print(json.dumps([v, sum(a.f.stats.cache_hits.values())]))",
+            ],
             env=env, capture_output=True, text=True, check=True, cwd=tmp_path,
         )  # fmt: skip
-        return float(out.stdout.strip())
+        v, hits = json.loads(out.stdout.strip().splitlines()[-1])
+        return v, hits
 
-    assert run() == 4.0
-    assert run() == 4.0  # from the cache
-    (tmp_path / "b.py").write_text((tmp_path / "b.py").read_text().replace("1.0", "2.0"))
-    assert run() == 6.0
+    assert run() == (4.0, 0)
+    assert run() == (4.0, 1)  # from the cache
+    (tmp_path / "c.py").write_text((tmp_path / "c.py").read_text().replace("1.0", "2.0"))
+    assert run() == (6.0, 0)  # c changed: compiled again
+    assert run() == (6.0, 1)
+    (tmp_path / "b.py").write_text((tmp_path / "b.py").read_text().replace("* 1.0", "* 2.0"))
+    assert run() == (12.0, 0)
+
+
+def test_the_models_kernels_depend_on_what_they_inline():
+    from pathlib import Path
+
+    from thermogym._jitcache import kernel_sources
+    from thermogym.envs import axt211_room
+    from thermogym.models import room
+
+    names = {Path(f).name for f in kernel_sources(room._step_kernel)}
+    assert {"room.py", "room_dynamics.py", "axt211_dynamics.py", "integrators.py"} <= names
+    assert "_vmath.py" in names  # vpow, min/max of the lanes
+    # an environment's step kernel (closures over closures): its rows, the room's
+    # equations, the turning-point tracker of the KPIs
+    step = axt211_room._step_kernels(0, False).step
+    env = {Path(f).name for f in kernel_sources(step)}
+    assert {"axt211_room.py", "_kernels.py", "kpis.py", "room_dynamics.py"} <= env
+    assert not any("site-packages" in f for f in kernel_sources(room._step_kernel))

@@ -228,6 +228,55 @@ def layer_violations(g: Graph) -> list[tuple[str, str, str]]:
     return out
 
 
+#: Parts that use the models only through their public kernel API: never a private name of
+#: ``thermogym.models`` (a module ``_x``, a name ``_y`` imported from or read off a module).
+PUBLIC_MODEL_API_ONLY = frozenset({"envs"})
+
+
+def private_model_names(g: Graph, parts: frozenset[str] | None = None) -> list[tuple[str, str]]:
+    """``(module, name)`` for every private name of ``thermogym.models`` a module reaches.
+
+    Found statically: private modules imported, private names imported from a models
+    module, and private attributes read off a name bound to a models module
+    (``from thermogym.models import axt211 as ax; ax._rhs``).
+    """
+    out = []
+    for name, path in g.files.items():
+        if part(name) == "models" or (parts is not None and part(name) not in parts):
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        aliases: set[str] = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
+                "thermogym.models"
+            ):
+                mod = node.module or ""
+                for a in node.names:
+                    full = f"{mod}.{a.name}"
+                    private = any(b.startswith("_") for b in full.split("."))
+                    if private:
+                        out.append((name, full))
+                    if full in g.files:  # a module bound to a name
+                        aliases.add(a.asname or a.name)
+            elif isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.startswith("thermogym.models"):
+                        if any(b.startswith("_") for b in a.name.split(".")):
+                            out.append((name, a.name))
+                        if a.asname:
+                            aliases.add(a.asname)
+        for node in ast.walk(tree):
+            if (
+                isinstance(node, ast.Attribute)
+                and node.attr.startswith("_")
+                and not node.attr.startswith("__")
+                and isinstance(node.value, ast.Name)
+                and node.value.id in aliases
+            ):
+                out.append((name, f"{node.value.id}.{node.attr}"))
+    return sorted(set(out))
+
+
 def cycles(g: Graph) -> list[frozenset[str]]:
     """Strongly connected components (more than one module) of the run-time import graph."""
     edges: dict[str, set[str]] = defaultdict(set)
@@ -311,6 +360,33 @@ def test_no_import_cycles():
     )
 
 
+def test_envs_use_only_the_public_kernel_api_of_the_models():
+    bad = private_model_names(_graph(), PUBLIC_MODEL_API_ONLY)
+    assert not bad, "private names of thermogym.models used by:\n" + "\n".join(
+        f"  {m}: {n}" for m, n in bad
+    )
+
+
+def test_the_private_name_check_finds_them(tmp_path):
+    pkg = tmp_path / "thermogym"
+    (pkg / "models").mkdir(parents=True)
+    (pkg / "envs").mkdir()
+    for p in (pkg, pkg / "models", pkg / "envs"):
+        (p / "__init__.py").write_text("")
+    (pkg / "models" / "a.py").write_text("def _k():\n    pass\n\ndef k():\n    pass\n")
+    (pkg / "models" / "_b.py").write_text("")
+    (pkg / "envs" / "c.py").write_text(
+        "from thermogym.models import a as m\nfrom thermogym.models import _b\n"
+        "from thermogym.models.a import _k, k\nm._k()\nm.k()\n"
+    )
+    found = private_model_names(build_graph(pkg), PUBLIC_MODEL_API_ONLY)
+    assert found == [
+        ("thermogym.envs.c", "m._k"),
+        ("thermogym.envs.c", "thermogym.models._b"),
+        ("thermogym.envs.c", "thermogym.models.a._k"),
+    ]
+
+
 def test_known_exceptions_still_occur():
     g = _graph()
     gone = set(KNOWN_VIOLATIONS) - {v[:2] for v in layer_violations(g)}
@@ -344,6 +420,9 @@ def _report() -> None:  # pragma: no cover - the script's output
         print(f"  {a:15s} -> {', '.join(sorted(bs))}")
     print("import cycles:", [sorted(c) for c in cycles(g)] or "none")
     print("layer violations:", layer_violations(g) or "none")
+    print("private names of thermogym.models used elsewhere:")
+    for m, n in private_model_names(g):
+        print(f"  {m}: {n}")
     sizes = {m: len(p.read_text(encoding="utf-8").splitlines()) for m, p in g.files.items()}
     print("modules over 1,000 lines:")
     for m, n in sorted(sizes.items(), key=lambda kv: -kv[1]):

@@ -165,7 +165,7 @@ def test_simulate_network_takes_an_explicit_substep_count():
     T, dt = 120, 120.0
     u = np.column_stack([np.repeat([0.0, 6000.0, 3000.0], T // 3), np.full(T, 21.0)])[None]
     x0 = np.full((1, len(m.nodes)), 21.0)
-    n = m.rk4_substeps(m.network(m._layout.full_theta(th)), dt, 6000.0)
+    n = m.rk4_substeps(m.network(m.full_theta(th)), dt, 6000.0)
     y_default, _ = m.simulate_network(th, u, dt, x0)
     y_same, _ = m.simulate_network(th, u, dt, x0, substeps=n)
     np.testing.assert_array_equal(y_same, y_default)  # the default is that count

@@ -52,9 +52,9 @@ def plant_loops(row: Any, *modules: ModuleType) -> tuple[Any, Any]:
     (0, or 1 for an invalid action). The returned kernels take
     ``(active, *args)`` and return the largest status: ``serial`` loops over the
     plants, ``parallel`` gives one plant per thread (numba ``prange``; each row
-    writes only its own plant, so the results equal the serial ones). ``modules``
-    are those whose sources the row's compiled code depends on (its own module
-    first), as :func:`cache_depends_on`.
+    writes only its own plant, so the results equal the serial ones). Their cache
+    depends on the sources the row's code reaches (:func:`cache_depends_on`), and on
+    ``modules`` if given.
     """
 
     @nb.njit(cache=True)
@@ -96,7 +96,8 @@ def block_steppers(rows: Any, bw: int, *modules: ModuleType) -> tuple[Any, Any]:
     of ``bw``. Returns ``step(mode, act, ...)`` over all plants, and ``step_parallel(...,
     nch)`` over ``nch`` chunks of whole blocks on threads (each chunk writes only its own
     rows, so results equal the serial ones). Both return 2 when a turning-point buffer must
-    grow first (nothing moved), else the largest status of ``rows``.
+    grow first (nothing moved), else the largest status of ``rows``. Cache dependencies as
+    :func:`plant_loops`.
     """
 
     @nb.njit(cache=True)

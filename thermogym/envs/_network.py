@@ -16,7 +16,7 @@ A network with nonlinear effects (a FitResult of a model with
 ``input_nonlinearity``, ``input_dependent_heat_transfer``,
 ``nonlinear_heat_transfer``, ``time_varying_parameter``) is advanced instead
 by the network's own compiled fixed-step RK4 kernel
-(:func:`thermogym.models.thermal_network._rk4_kernel`) before the step kernel
+(:meth:`thermogym.models.thermal_network.ThermalNetworkModel.integrate`) before the step kernel
 measures and rewards.
 
 With ``plant="rig"`` (:func:`network_plant`) the engine steps the rig's true
@@ -40,11 +40,11 @@ from numpy.typing import NDArray
 from thermogym.envs._base import C_K, Engine
 from thermogym.envs._plant import ParamsLike, Plant, resolve_plant
 from thermogym.errors import ConfigError
-from thermogym.models import thermal_network as _tn
 from thermogym.models.linear import StateSpaceModel
+from thermogym.models.lti import lti_output, lti_update
 from thermogym.models.thermal_network import ThermalNetworkModel
 
-__all__ = ["LTIEngine", "lti_update", "network_plant"]
+__all__ = ["LTIEngine", "lti_output", "lti_step", "network_plant"]
 
 
 def network_plant(
@@ -81,29 +81,14 @@ def network_plant(
 
 
 @nb.njit(cache=True, inline="always")
-def lti_update(x, u, Ad, Bd, tmp):  # pragma: no cover - numba
-    """``x ← A_d x + B_d u`` for one plant (``tmp`` is scratch of length n)."""
-    n = x.shape[0]
-    for i in range(n):
-        s = 0.0
-        for j in range(n):
-            s += Ad[i, j] * x[j]
-        for j in range(u.shape[0]):
-            s += Bd[i, j] * u[j]
-        tmp[i] = s
-    for i in range(n):
+def lti_step(x, u, At, Bt, tmp):  # pragma: no cover - numba
+    """``x ← A_d x + B_d u`` for one plant in place (transposed matrices).
+
+    :func:`thermogym.models.lti.lti_update`; ``tmp`` is scratch of length n.
+    """
+    lti_update(At, Bt, x, u, tmp)
+    for i in range(x.shape[0]):
         x[i] = tmp[i]
-
-
-@nb.njit(cache=True, inline="always")
-def lti_output(x, u, H, D, h0, i):  # pragma: no cover - numba
-    """Output ``i`` of ``y = H x + D u + h_0``."""
-    s = h0[i]
-    for j in range(x.shape[0]):
-        s += H[i, j] * x[j]
-    for j in range(u.shape[0]):
-        s += D[i, j] * u[j]
-    return s
 
 
 class LTIEngine(Engine):
@@ -175,10 +160,11 @@ class LTIEngine(Engine):
             self._rig_specs: dict[int, Any] = {}
             nx = ny
         self.x = np.zeros((B, nx))
-        self.Ad = np.zeros((B, nx, nx))
-        self.Bd = np.zeros((B, nx, 2))
-        self.Hm = np.zeros((B, ny, nx))
-        self.Dm = np.zeros((B, ny, 2))
+        # the plant's discrete matrices, transposed (the layout of thermogym.models.lti)
+        self.At = np.zeros((B, nx, nx))
+        self.Bt = np.zeros((B, 2, nx))
+        self.Ct = np.zeros((B, nx, ny))
+        self.Dt = np.zeros((B, 2, ny))
         self.h0 = np.zeros((B, ny))
         self.linear = np.ones(B, dtype=np.bool_)
         self.all_linear = True
@@ -200,10 +186,10 @@ class LTIEngine(Engine):
             # the rig's outputs are the state: y = x, advanced by the rig, not by (A_d, B_d)
             n = self.x.shape[1]
             self.linear[b] = False
-            self.Ad[b] = np.eye(n)
-            self.Bd[b] = 0.0
-            self.Hm[b] = np.eye(n)
-            self.Dm[b] = 0.0
+            self.At[b] = np.eye(n)
+            self.Bt[b] = 0.0
+            self.Ct[b] = np.eye(n)
+            self.Dt[b] = 0.0
             self.h0[b] = 0.0
             self.all_linear = False
             return
@@ -216,8 +202,8 @@ class LTIEngine(Engine):
             H, h0 = C, np.zeros(C.shape[0])
             self.linear[b] = True
         else:
-            full = m._layout.full_theta(theta)  # type: ignore[attr-defined]
-            self.linear[b] = m._is_linear(full)  # type: ignore[attr-defined]
+            full = m.full_theta(theta)  # type: ignore[attr-defined]
+            self.linear[b] = m.is_linear(full)  # type: ignore[attr-defined]
             net = m.network(full)  # type: ignore[attr-defined]
             H, h0, D = net.H, net.h0[0], np.zeros((net.H.shape[0], 2))
             if self.linear[b]:
@@ -227,18 +213,18 @@ class LTIEngine(Engine):
                 Ad, Bd = np.eye(len(m.state_names)), np.zeros((len(m.state_names), 2))
                 self._nets[b] = (
                     net,
-                    m._effect_values(full),  # type: ignore[attr-defined]
+                    m.effect_values(full),  # type: ignore[attr-defined]
                     m.rk4_substeps(net, self._dt_ctrl, self.u_max),  # type: ignore[attr-defined]
                 )
         for j, col in enumerate(self.uidx):
             if col >= 0:
-                self.Bd[b, :, j] = Bd[:, col]
-                self.Dm[b, :, j] = D[self.oidx, col]
+                self.Bt[b, j] = Bd[:, col]
+                self.Dt[b, j] = D[self.oidx, col]
             else:
-                self.Bd[b, :, j] = 0.0
-                self.Dm[b, :, j] = 1.0  # outputs are rises: add the ambient
-        self.Ad[b] = Ad
-        self.Hm[b] = H[self.oidx]
+                self.Bt[b, j] = 0.0
+                self.Dt[b, j] = 1.0  # outputs are rises: add the ambient
+        self.At[b] = Ad.T
+        self.Ct[b] = H[self.oidx].T
         self.h0[b] = h0[self.oidx]
         self.all_linear = bool(self.linear.all())
 
@@ -264,7 +250,7 @@ class LTIEngine(Engine):
             # a network at rest: every node at the air temperature
             return np.full(self.x.shape[1], float(u0[1]))
         n = self.x.shape[1]
-        return np.linalg.solve(np.eye(n) - self.Ad[b], self.Bd[b] @ u0)
+        return np.linalg.solve(np.eye(n) - self.At[b].T, self.Bt[b].T @ u0)
 
     def advance_nonlinear(self, u: NDArray[np.float64]) -> None:
         """RK4 step of the active plants whose network is nonlinear (``u``: (B, 2))."""
@@ -283,27 +269,8 @@ class LTIEngine(Engine):
             U = np.empty((1, 2, 2))
             U[0, :, 0] = u[b, 0]
             U[0, :, 1] = u[b, 1]
-            y = np.empty((1, 2, net.H.shape[0]))
-            xs = np.empty((1, 2, self.x.shape[1]))
-            _tn._rk4_kernel(
-                np.ascontiguousarray(net.C),
-                np.ascontiguousarray(net.G),
-                np.ascontiguousarray(net.g_amb),
-                np.ascontiguousarray(net.q),
-                eff,
-                float(m.u_ref),  # type: ignore[attr-defined]
-                float(m.dT_ref),  # type: ignore[attr-defined]
-                m._forced_mask,  # type: ignore[attr-defined]
-                np.ascontiguousarray(net.H),
-                np.ascontiguousarray(net.h0),
-                np.ascontiguousarray(self.x[b : b + 1]),
-                U,
-                np.zeros((1, 1, 1)),
-                float(self.ctr[b, C_K] * self._dt_ctrl),
-                self._dt_ctrl,
-                int(nsub),
-                y,
-                xs,
-                True,
-            )
+            _, xs = m.integrate(  # type: ignore[attr-defined]
+                net, eff, self.x[b : b + 1], U, self._dt_ctrl, int(nsub),
+                t0=float(self.ctr[b, C_K] * self._dt_ctrl), return_states=True,
+            )  # fmt: skip
             self.x[b] = xs[0, 1]

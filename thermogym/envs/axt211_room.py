@@ -99,7 +99,6 @@ from __future__ import annotations
 import functools
 import math
 import os
-import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -109,8 +108,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from thermogym.envs import _kernels
-from thermogym.envs import kpis as _kpis
 from thermogym.envs._base import (
     C_CUR,
     C_K,
@@ -140,10 +137,10 @@ from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs.kpis import _rainflow_tp, tp_finish, tp_update_at, wax_cycle_kpis
 from thermogym.envs.profiles import synthetic_weather
 from thermogym.errors import ConfigError
-from thermogym.models import _vmath
-from thermogym.models import axt211 as _ax
-from thermogym.models import room as _room
-from thermogym.models._vmath import vpow as _vpow
+from thermogym.models import axt211_dynamics as ax
+from thermogym.models import integrators
+from thermogym.models import room_dynamics as rd
+from thermogym.models.integrators import rk4_accumulate, rk4_finish, rk4_stage_input
 from thermogym.models.room import RoomModel
 from thermogym.recording import Recording
 
@@ -277,27 +274,30 @@ QUAD_S = 10.0
 
 
 @nb.njit(cache=True, inline="always")
-def _segment(xb, u, kU, Tout, Qint, pb, L, hmax, kind, iref, P0, Q0):  # pragma: no cover
-    # Advance one system over a segment of length L with the heater command u held, by the
-    # room model's RK4 steps (h <= max_step); P_PTC and Q_heat are integrated by the
-    # trapezoidal rule on intervals of at most QUAD_S seconds.
+def _segment(x, u, kU, Tout, Qint, pb, L, hmax, kind, P0, Q0):  # pragma: no cover - numba
+    # Advance one system (state tuple x) over a segment of length L with the heater command
+    # u held, by the room model's RK4 steps (h <= max_step); P_PTC and Q_heat are integrated
+    # by the trapezoidal rule on intervals of at most QUAD_S seconds.
     n = max(1, math.ceil(L / hmax - 1e-9))
     h = L / n
     m = max(1, int(QUAD_S / h + 1e-9))
+    q, r, e = ax.coefficients(pb), rd.coefficients(pb), ax.effect_coefficients(pb)
+    v = kU * u
+    Tsup = rd.supply(Tout, pb)  # T_out is held over the segment
     E = 0.0
     Q = 0.0
     done = 0
     while done < n:
         s = min(m, n - done)
-        _room._advance(xb, u, kU, Tout, Qint, pb, h, s, kind)  # s RK4 steps of the room
-        P1 = _ax._power(xb[0], u, kU, pb)[0] if u > 0.0 else 0.0
-        Q1 = _room._emission(xb[4], xb[5], pb, iref)
+        x = rd.advance(x, v * v, Tsup, Tout, Qint, h, s, q, r, e, kind)  # s RK4 steps
+        P1 = ax.power(v * v, ax.resistance(x[0], q), pb[ax.I_RS]) if u > 0.0 else 0.0
+        Q1 = rd.heat(x[4], x[5], r)
         E += 0.5 * (P0 + P1) * s * h
         Q += 0.5 * (Q0 + Q1) * s * h
         P0 = P1
         Q0 = Q1
         done += s
-    return E, Q, Q0
+    return x, E, Q, Q0
 
 
 # ------------------------------------------------------------------ lockstep kernel
@@ -309,9 +309,8 @@ def _segment(xb, u, kU, Tout, Qint, pb, L, hmax, kind, iref, P0, Q0):  # pragma:
 # stepping each plant alone. Parameter sets with an active actuator effect take the scalar
 # _room_dyn. A block lives in one flat array, row r of lane i at wb[r * W + i].
 
-_NQA = _ax._N_LANE - 1  # actuator lane rows copied into a block (without the plain flag)
-_NQR = _room._N_ROOM_LANE - _ax._N_LANE  # the room's lane rows
-_NQ = _NQA + _NQR
+_NQA = rd.LANE_ROOM  # the room's coefficient rows follow the actuator's in a block
+_NQ = rd.LANE_PLAIN  # parameter rows in a block (the plain flag goes to _R_PLAIN)
 (
     _R_TP, _R_TG, _R_XP, _R_XV, _R_TR, _R_TA, _R_TS, _R_NON, _R_NTOT, _R_HON, _R_HOFF,
     _R_MQON, _R_MQOFF, _R_CNT, _R_E, _R_QON, _R_QOFF, _R_P0, _R_Q0, _R_KU2, _R_TOUT,
@@ -350,19 +349,21 @@ def _room_inputs(b, acc):  # pragma: no cover - numba
 def _room_dyn(xb, d, kU, Tout, Qint, pb, T, hmax, kind, Q0):  # pragma: no cover - numba
     # one plant over one period by the model's scalar RK4 (actuator effects included): on
     # for d·T, then off; returns the actuator energy [J], the heat [J] and the last Q_heat
-    iref = _room._inv_ref(pb)
+    x = (xb[0], xb[1], xb[2], xb[3], xb[4], xb[5], xb[6])
     E = 0.0
     Qsum = 0.0
     ton = d * T
     if ton > 0.0:
-        P0 = _ax._power(xb[0], 1.0, kU, pb)[0]
-        e1, q1, Q0 = _segment(xb, 1.0, kU, Tout, Qint, pb, ton, hmax, kind, iref, P0, Q0)
+        P0 = ax.power(kU * kU, ax.resistance(x[0], ax.coefficients(pb)), pb[ax.I_RS])
+        x, e1, q1, Q0 = _segment(x, 1.0, kU, Tout, Qint, pb, ton, hmax, kind, P0, Q0)
         E += e1
         Qsum += q1
     toff = T - ton
     if toff > 1e-9 * T:
-        _, q1, Q0 = _segment(xb, 0.0, kU, Tout, Qint, pb, toff, hmax, kind, iref, 0.0, Q0)
+        x, _, q1, Q0 = _segment(x, 0.0, kU, Tout, Qint, pb, toff, hmax, kind, 0.0, Q0)
         Qsum += q1
+    for j in range(7):
+        xb[j] = x[j]
     return E, Qsum, Q0
 
 
@@ -390,7 +391,7 @@ def _room_post(
         occ, hour = _clock(t, cfg)
         ntp = tp_push(acc, b, _A_TPT, TP, cfg[_HT], tpbuf, ntp)
         tp_update_at(acc, b, _A_TPX, xV, cfg[_HX])
-        acc[b, _A_QLAST] = _room._emission(Tr, Tz, p[b], _room._inv_ref(p[b]))
+        acc[b, _A_QLAST] = rd.heat(Tr, Tz, rd.coefficients(p[b]))
     else:
         sw = 1.0 if (d > 0.0 and acc[b, _A_ON] == 0.0) else 0.0
         acc[b, _A_ON] = 1.0 if d >= 1.0 else 0.0
@@ -459,7 +460,7 @@ def _quad_point(wb, W, i, sf, non, ntot, hon, hoff, ku2, R, Q, first):  # pragma
     # trapezoidal ∫P_PTC dt (heater-on part) and ∫Q_heat dt (both parts) as in _segment:
     # a point at state j = sf every QUAD_S seconds of a part and at its end; R, Q: R_PTC
     # and Q_heat at that state; only at stage 1 of a sub-step (first)
-    P = ku2 * R / (R * R)  # (15) at u = 1, as axt211._power with R_source = 0
+    P = ax.power(ku2, R, 0.0)  # (15) at u = 1
     inon = first & (sf >= 1.0) & (sf <= non)
     inoff = first & (sf > non) & (sf <= ntot)
     cnt = wb[_R_CNT * W + i] + (1.0 if (inon | inoff) else 0.0)
@@ -482,11 +483,11 @@ def _quad_point(wb, W, i, sf, non, ntot, hon, hoff, ku2, R, Q, first):  # pragma
 def _stage_base(wb, W, i, xP, xV0, Tr, Ta, kind):  # pragma: no cover - numba
     # the bases of the power laws of the next stage at its inputs (stroke xP, step-start
     # valve stroke xV0, radiator Tr, zone Ta): emission, and the equal-percentage valve
-    qr = _room._room_lane_load(wb, _NQA, W, i)
-    wb[_R_BASE * W + i] = _room._emission_base(Tr, Ta, qr[4])
+    r = rd.load_coefficients(wb, _NQA, W, i)
+    wb[_R_BASE * W + i] = rd.emission_base(Tr, Ta, r)
     if kind != 0:
-        qa = _ax._lane_load(wb, 0, W, i)
-        wb[_R_EXPV * W + i] = _room._stroke_lane(xP, xV0, qa, qr[5]) - 1.0
+        q = ax.load_coefficients(wb, 0, W, i)
+        wb[_R_EXPV * W + i] = rd.valve_stroke(xP, xV0, q, r) - 1.0
 
 
 @nb.njit(cache=True, inline="always")
@@ -494,109 +495,83 @@ def _powers(wb, W, kind):  # pragma: no cover - numba
     # the power laws of a stage, in a loop of their own (vpow: vectorises, as the scalar
     # kernel's)
     for i in range(W):
-        wb[_R_PW * W + i] = _vpow(wb[_R_BASE * W + i], wb[(_NQA + 9) * W + i])  # ^n_rad
+        wb[_R_PW * W + i] = rd.power_law(
+            wb[_R_BASE * W + i], wb[(_NQA + rd.R_NR) * W + i]
+        )  # ^n_rad
     if kind != 0:
         for i in range(W):
-            wb[_R_PWV * W + i] = _vpow(wb[(_NQA + 6) * W + i], wb[_R_EXPV * W + i])  # R_v^(h−1)
+            wb[_R_PWV * W + i] = rd.power_law(wb[(_NQA + rd.R_RV) * W + i], wb[_R_EXPV * W + i])
 
 
 @nb.njit(cache=True, inline="always")
 def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
-    # stage j (1-4, a compile-time constant) of RK4 sub-step sf of lane i:
-    # room._advance / _deriv operation for operation (via room._deriv_lane), with the power
-    # laws from _powers and the sub-step's step size and heater input from _prepare
+    # stage j (1-4, a compile-time constant) of RK4 sub-step sf of lane i: the model's step
+    # (room_dynamics.step) cut into stages by the shared integrator's stage functions, with
+    # the power laws from _powers and the sub-step's step size and heater input from _prepare
     first = j == 1
     last = j == 4
-    qa = _ax._lane_load(wb, 0, W, i)
-    qr = _room._room_lane_load(wb, _NQA, W, i)
-    QN = qr[8]
+    q = ax.load_coefficients(wb, 0, W, i)
+    r = rd.load_coefficients(wb, _NQA, W, i)
     non = wb[_R_NON * W + i]
     ntot = wb[_R_NTOT * W + i]
-    hon = wb[_R_HON * W + i]
-    hoff = wb[_R_HOFF * W + i]
     h = wb[_R_H * W + i]
-    hh = 0.5 * h
-    ku2 = wb[_R_KU2 * W + i]
-    v2 = wb[_R_V2 * W + i]
-    Tsup = wb[_R_TSUP * W + i]
-    Tout = wb[_R_TOUT * W + i]
-    Qint = wb[_R_QINT * W + i]
-    x0 = wb[_R_TP * W + i]
-    x1 = wb[_R_TG * W + i]
-    x2 = wb[_R_XP * W + i]
-    x3 = wb[_R_XV * W + i]
-    x4 = wb[_R_TR * W + i]
-    x5 = wb[_R_TA * W + i]
-    x6 = wb[_R_TS * W + i]
-    # stage inputs x + c k, k the previous stage's derivative (loads outside the selects:
-    # a load under a condition keeps the loop from vectorising)
-    k0 = wb[(_R_K + 0) * W + i]
-    k1 = wb[(_R_K + 1) * W + i]
-    k2 = wb[(_R_K + 2) * W + i]
-    k3 = wb[(_R_K + 3) * W + i]
-    k4 = wb[(_R_K + 4) * W + i]
-    k5 = wb[(_R_K + 5) * W + i]
-    c = h if last else hh
-    TP = x0 if first else x0 + c * k0
-    TG = x1 if first else x1 + c * k1
-    xP = x2 if first else x2 + c * k2
-    Tr = x4 if first else x4 + c * k3
-    Ta = x5 if first else x5 + c * k4
-    Ts = x6 if first else x6 + c * k5
-    Q = _room._emission_signed(Tr, Ta, QN, wb[_R_PW * W + i])
+    # the six integrated states (x_V is the step-start memory of (20)), the previous
+    # stage's derivatives and the weighted sum so far (loads outside the selects: a load
+    # under a condition keeps the loop from vectorising)
+    x = (
+        wb[_R_TP * W + i], wb[_R_TG * W + i], wb[_R_XP * W + i], wb[_R_TR * W + i],
+        wb[_R_TA * W + i], wb[_R_TS * W + i],
+    )  # fmt: skip
+    xV = wb[_R_XV * W + i]
+    kp = _load6(wb, _R_K, W, i)
+    sp = _load6(wb, _R_S, W, i)
+    xin = rk4_stage_input(x, kp, h, j)
+    Q = rd.emission(xin[3], xin[4], wb[_R_PW * W + i], r)
     pwv = wb[_R_PWV * W + i] if kind != 0 else 0.0
-    dTP, dTG, dxP, dTr, dTa, dTs, R = _room._deriv_lane(
-        TP, TG, xP, Tr, Ta, Ts, x3, v2, Tsup, Tout, Qint, Q, pwv, qa, qr, kind
-    )
-    _quad_point(wb, W, i, sf, non, ntot, hon, hoff, ku2, R, Q, first)
-    # RK4 sum with weights 1, 2, 2, 1, accumulated in _advance's order
-    m = 1.0 if last else 2.0
-    s0 = wb[(_R_S + 0) * W + i]
-    s1 = wb[(_R_S + 1) * W + i]
-    s2 = wb[(_R_S + 2) * W + i]
-    s3 = wb[(_R_S + 3) * W + i]
-    s4 = wb[(_R_S + 4) * W + i]
-    s5 = wb[(_R_S + 5) * W + i]
-    s0 = dTP if first else s0 + m * dTP
-    s1 = dTG if first else s1 + m * dTG
-    s2 = dxP if first else s2 + m * dxP
-    s3 = dTr if first else s3 + m * dTr
-    s4 = dTa if first else s4 + m * dTa
-    s5 = dTs if first else s5 + m * dTs
-    wb[(_R_K + 0) * W + i] = dTP
-    wb[(_R_K + 1) * W + i] = dTG
-    wb[(_R_K + 2) * W + i] = dxP
-    wb[(_R_K + 3) * W + i] = dTr
-    wb[(_R_K + 4) * W + i] = dTa
-    wb[(_R_K + 5) * W + i] = dTs
-    wb[(_R_S + 0) * W + i] = s0
-    wb[(_R_S + 1) * W + i] = s1
-    wb[(_R_S + 2) * W + i] = s2
-    wb[(_R_S + 3) * W + i] = s3
-    wb[(_R_S + 4) * W + i] = s4
-    wb[(_R_S + 5) * W + i] = s5
+    k, R = rd.lane_rhs(
+        xin, xV, wb[_R_V2 * W + i], wb[_R_TSUP * W + i], wb[_R_TOUT * W + i],
+        wb[_R_QINT * W + i], Q, pwv, q, r, kind,
+    )  # fmt: skip
+    _quad_point(
+        wb, W, i, sf, non, ntot, wb[_R_HON * W + i], wb[_R_HOFF * W + i], wb[_R_KU2 * W + i],
+        R, Q, first,
+    )  # fmt: skip
+    sn = rk4_accumulate(sp, k, j)
+    _store6(wb, _R_K, W, i, k)
+    _store6(wb, _R_S, W, i, sn)
     # after stage 4: the new state (lanes past their last sub-step keep theirs)
     run = last & (sf < ntot)
-    w = h / 6.0
-    n2 = _ax._min(_ax._max(x2 + w * s2, qa[16]), qa[17])  # end stops and (20), as in _advance
-    n3 = _ax._backlash_lane(n2, x3, qa[18], qa[19])
-    y2 = n2 if run else x2
-    y3 = n3 if run else x3
-    y4 = x4 + w * s3 if run else x4
-    y5 = x5 + w * s4 if run else x5
-    wb[_R_TP * W + i] = x0 + w * s0 if run else x0
-    wb[_R_TG * W + i] = x1 + w * s1 if run else x1
-    wb[_R_XP * W + i] = y2
-    wb[_R_XV * W + i] = y3
-    wb[_R_TR * W + i] = y4
-    wb[_R_TA * W + i] = y5
-    wb[_R_TS * W + i] = x6 + w * s5 if run else x6
-    # arguments of the powers of the next stage (stage 1 of the next sub-step after 4)
-    c2 = hh if j < 3 else h
-    _stage_base(
-        wb, W, i, y2 if last else x2 + c2 * dxP, y3 if last else x3,
-        y4 if last else x4 + c2 * dTr, y5 if last else x5 + c2 * dTa, kind,
+    xn = rk4_finish(x, h, sn)
+    xPn, xVn = ax.constrain(xn[2], xV, q)  # end stops and (20), as in the model's step
+    y = (
+        xn[0] if run else x[0], xn[1] if run else x[1], xPn if run else x[2],
+        xn[3] if run else x[3], xn[4] if run else x[4], xn[5] if run else x[5],
     )  # fmt: skip
+    y3 = xVn if run else xV
+    wb[_R_TP * W + i] = y[0]
+    wb[_R_TG * W + i] = y[1]
+    wb[_R_XP * W + i] = y[2]
+    wb[_R_XV * W + i] = y3
+    wb[_R_TR * W + i] = y[3]
+    wb[_R_TA * W + i] = y[4]
+    wb[_R_TS * W + i] = y[5]
+    # arguments of the powers of the next stage (stage 1 of the next sub-step after 4)
+    nxt = y if last else rk4_stage_input(x, k, h, j + 1)
+    _stage_base(wb, W, i, nxt[2], y3 if last else xV, nxt[3], nxt[4], kind)
+
+
+_load6 = integrators.loader(6)
+
+
+@nb.njit(cache=True, inline="always")
+def _store6(wb, o, W, i, t):  # pragma: no cover - numba
+    # a 6-tuple to rows o..o+5 of lane i (explicit stores: the loop over lanes vectorises)
+    wb[o * W + i] = t[0]
+    wb[(o + 1) * W + i] = t[1]
+    wb[(o + 2) * W + i] = t[2]
+    wb[(o + 3) * W + i] = t[3]
+    wb[(o + 4) * W + i] = t[4]
+    wb[(o + 5) * W + i] = t[5]
 
 
 @nb.njit(cache=True, inline="always")
@@ -651,11 +626,11 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
         _powers(wb, W, 0)
         sf = float(nmax)
         for i in range(W):
-            qa = _ax._lane_load(wb, 0, W, i)
-            R = _ax._lane_resistance(wb[_R_TP * W + i], qa)
-            Q = _room._emission_signed(
-                wb[_R_TR * W + i], wb[_R_TA * W + i], wb[(_NQA + 8) * W + i], wb[_R_PW * W + i]
-            )
+            R = ax.resistance(wb[_R_TP * W + i], ax.load_coefficients(wb, 0, W, i))
+            Q = rd.emission(
+                wb[_R_TR * W + i], wb[_R_TA * W + i], wb[_R_PW * W + i],
+                rd.load_coefficients(wb, _NQA, W, i),
+            )  # fmt: skip
             _quad_point(
                 wb, W, i, sf, wb[_R_NON * W + i], wb[_R_NTOT * W + i], wb[_R_HON * W + i],
                 wb[_R_HOFF * W + i], wb[_R_KU2 * W + i], R, Q, True,
@@ -663,9 +638,6 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
 
     return lockstep, (st1, st2, st3, st4)
 
-
-#: Modules whose sources the compiled kernels of this module contain.
-_DEPS = (_ax, _room, _vmath, _kpis, _kernels)
 
 _BW = 32  # lanes of a full block (77 rows x 32 lanes x 8 B = 19 KiB: L1 cache)
 
@@ -758,9 +730,7 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
             wb[_R_TOUT * W + i] = Tout
             wb[_R_QINT * W + i] = Qint
             # heating curve, T_out held
-            wb[_R_TSUP * W + i] = _room._supply_at(
-                Tout, p[b, _room._I_TOD], p[b, _room._I_TS20], p[b, _room._I_TSD]
-            )
+            wb[_R_TSUP * W + i] = rd.supply(Tout, p[b])
             for k in range(6):
                 wb[(_R_K + k) * W + i] = 0.0
                 wb[(_R_S + k) * W + i] = 0.0
@@ -820,7 +790,7 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                 )  # fmt: skip
         return status
 
-    step, step_parallel = block_steppers(rows, _BW, sys.modules[__name__], *_DEPS)
+    step, step_parallel = block_steppers(rows, _BW)
 
     @nb.njit
     def rollout(
@@ -860,12 +830,12 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
         return 0, n, total
 
     for k in (*([ls] if lockstep else []), *stage_loops, block, rows):
-        cache_depends_on(k, *_DEPS)
+        cache_depends_on(k)
     return _StepKernels(step, step_parallel, rollout)
 
 
 for _k in (_room_dyn, _room_post, _part):
-    cache_depends_on(_k, *_DEPS)
+    cache_depends_on(_k)
 
 
 class _RoomEngine(Engine):
@@ -974,11 +944,9 @@ class _RoomEngine(Engine):
 
     def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
         self.p[b] = self.model.full_theta(theta)[0]  # type: ignore[attr-defined]
-        col = np.zeros((_room._N_ROOM_LANE, 1))
-        _room._room_lane_column(self.p[b], col, 0)
-        # block rows: the actuator rows without the plain flag, then the room rows
-        rows = np.concatenate([col[:_NQA, 0], col[_ax._N_LANE :, 0]])
-        put_lane(self.lanes, b, _BW, rows, col[_ax._LN_PLAIN, 0], _R_PLAIN)
+        col = np.zeros((len(rd.LANE_ROWS), 1))
+        rd.lane_column(self.p[b], col, 0)
+        put_lane(self.lanes, b, _BW, col[:_NQ, 0], col[rd.LANE_PLAIN, 0], _R_PLAIN)
 
     def _reset_row(self, b: int, rng: np.random.Generator) -> None:
         cfg = self.cfg

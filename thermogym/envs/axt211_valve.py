@@ -85,7 +85,6 @@ from __future__ import annotations
 
 import functools
 import math
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -95,8 +94,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
-from thermogym.envs import _kernels
-from thermogym.envs import kpis as _kpis
 from thermogym.envs._base import (
     C_K,
     C_NTP,
@@ -123,7 +120,7 @@ from thermogym.envs._kernels import (
 from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs.kpis import _rainflow_tp, tp_finish, tp_update_at, wax_cycle_kpis
 from thermogym.errors import ConfigError
-from thermogym.models import axt211 as _ax
+from thermogym.models import axt211_dynamics as ax
 from thermogym.models.axt211 import AXT211
 
 __all__ = ["DEFAULT_WEIGHTS", "AXT211ValveEnv", "AXT211ValveVectorEnv", "ValveConfig"]
@@ -244,20 +241,24 @@ def _dyn_scalar(xb, d, kU, TU, pb, T, hmax):  # pragma: no cover - numba
     # most QUAD_S (a few RK4 steps; within 0.5 % of a 0.1 s quadrature, see the tests).
     # Returns the energy [J].
     n_on, h_on, n_off, h_off = _segments(d, T, hmax)
+    q, e, Rs = ax.coefficients(pb), ax.effect_coefficients(pb), pb[ax.I_RS]
+    x = (xb[0], xb[1], xb[2], xb[3])
+    v2 = kU * kU  # (k_U u)², u = 1
     E = 0.0
     if n_on > 0:
         m = max(1, int(QUAD_S / h_on + 1e-9))
-        P0 = _ax._power(xb[0], 1.0, kU, pb)[0]
+        P0 = ax.power(v2, ax.resistance(x[0], q), Rs)
         done = 0
         while done < n_on:
             s = min(m, n_on - done)
-            _ax._advance(xb, 1.0, kU, TU, pb, h_on, s)  # (17)-(21), s RK4 steps
-            P1 = _ax._power(xb[0], 1.0, kU, pb)[0]  # (15)
+            x = ax.advance(x, v2, TU, h_on, s, q, e)  # (17)-(21), s RK4 steps
+            P1 = ax.power(v2, ax.resistance(x[0], q), Rs)  # (15)
             E += 0.5 * (P0 + P1) * s * h_on
             P0 = P1
             done += s
     if n_off > 0:
-        _ax._advance(xb, 0.0, kU, TU, pb, h_off, n_off)
+        x = ax.advance(x, 0.0, TU, h_off, n_off, q, e)
+    xb[0], xb[1], xb[2], xb[3] = x
     return E
 
 
@@ -364,11 +365,8 @@ def _valve_post(
 # compile-time constant, so that LLVM sees the rows as disjoint and vectorises without
 # run-time alias checks (it refuses for separate arrays: too many checks).
 
-#: Modules whose sources the compiled kernels of this module contain.
-_DEPS = (_ax, _kpis, _kernels)
-
 _BW = 64  # lanes of a full block: its 35 rows x 64 lanes x 8 B = 18 KiB stay in L1 cache
-_NQ = _ax._N_LANE - 1  # lane-table rows in a block (all but the plain flag)
+_NQ = ax.N_COEF  # lane-table rows in a block (all but the plain flag)
 (_R_TP, _R_TG, _R_XP, _R_XV, _R_NON, _R_NTOT, _R_HON, _R_HOFF, _R_MQ, _R_CNT, _R_E, _R_P0,
  _R_KU2, _R_TU) = range(_NQ, _NQ + 14)  # fmt: skip
 _R_PLAIN = _NQ + 14  # 1 where the plant has no physical effect (the lockstep applies)
@@ -380,7 +378,7 @@ _NROWB = _NQ + 15  # rows of a block array: the engine keeps one per block of pl
 def _quad_point(wb, W, i, sf, non, hon, ku2, R):  # pragma: no cover - numba
     # trapezoidal ∫P_PTC dt as in _dyn_scalar: a point at state j = sf (j RK4 steps done)
     # of the heater-on part, every QUAD_S seconds and at its end; R = R_PTC at that state
-    P = ku2 * R / (R * R)  # (15) at u = 1, as _power with R_source = 0
+    P = ax.power(ku2, R, 0.0)  # (15) at u = 1
     inq = (sf >= 1.0) & (sf <= non)
     cnt = wb[_R_CNT * W + i] + (1.0 if inq else 0.0)
     due = inq & ((cnt == wb[_R_MQ * W + i]) | (sf == non))
@@ -397,7 +395,7 @@ def _lockstep(wb, W, nmax):  # pragma: no cover - numba
     for s in range(nmax):
         sf = float(s)
         for i in range(W):
-            q = _ax._lane_load(wb, 0, W, i)
+            q = ax.load_coefficients(wb, 0, W, i)
             TP = wb[_R_TP * W + i]
             TG = wb[_R_TG * W + i]
             xP = wb[_R_XP * W + i]
@@ -409,7 +407,7 @@ def _lockstep(wb, W, nmax):  # pragma: no cover - numba
             h = hon if on else wb[_R_HOFF * W + i]
             ku2 = wb[_R_KU2 * W + i]
             v2 = ku2 if on else 0.0  # (k_U u)², u = 1 on, 0 off
-            TPn, TGn, xPn, xVn, R = _ax._rk4_lane(TP, TG, xP, xV, v2, wb[_R_TU * W + i], h, q)
+            (TPn, TGn, xPn, xVn), R = ax.step((TP, TG, xP, xV), v2, wb[_R_TU * W + i], h, q)
             _quad_point(wb, W, i, sf, non, hon, ku2, R)  # R is that of the state before
             wb[_R_TP * W + i] = TPn if run else TP
             wb[_R_TG * W + i] = TGn if run else TG
@@ -417,8 +415,7 @@ def _lockstep(wb, W, nmax):  # pragma: no cover - numba
             wb[_R_XV * W + i] = xVn if run else xV
     sf = float(nmax)
     for i in range(W):
-        q = _ax._lane_load(wb, 0, W, i)
-        R = _ax._lane_resistance(wb[_R_TP * W + i], q)
+        R = ax.resistance(wb[_R_TP * W + i], ax.load_coefficients(wb, 0, W, i))
         _quad_point(wb, W, i, sf, wb[_R_NON * W + i], wb[_R_HON * W + i], wb[_R_KU2 * W + i], R)
 
 
@@ -538,20 +535,20 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
                 continue
             _valve_post(
                 b, mode, dd[j], EE[j], x[b, 3] if mode == 1 else xv0[j], x[b, 0], x[b, 1],
-                x[b, 3], p[b, _ax._I_XMAX], dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out,
+                x[b, 3], p[b, ax.I_XMAX], dist, sp, acc, tpbuf, ctr, noise, meas, cfg, obs, out,
                 sig,
             )  # fmt: skip
         return status
 
-    step, step_parallel = block_steppers(rows, _BW, sys.modules[__name__], *_DEPS)
+    step, step_parallel = block_steppers(rows, _BW)
 
     for k in (block, rows):
-        cache_depends_on(k, *_DEPS)
+        cache_depends_on(k)
     return _StepKernels(step, step_parallel)
 
 
 for _k in (_dyn_scalar, _valve_post, _quad_point, _lockstep_bw):
-    cache_depends_on(_k, *_DEPS)
+    cache_depends_on(_k)
 
 
 class _ValveEngine(Engine):
@@ -671,9 +668,9 @@ class _ValveEngine(Engine):
 
     def _set_theta_row(self, b: int, theta: NDArray[np.float64]) -> None:
         self.p[b] = self.model.full_theta(theta)[0]  # type: ignore[attr-defined]
-        col = np.zeros((_ax._N_LANE, 1))
-        _ax._lane_column(self.p[b], col, 0)
-        put_lane(self.lanes, b, _BW, col[:_NQ, 0], col[_ax._LN_PLAIN, 0], _R_PLAIN)
+        col = np.zeros((len(ax.LANE_ROWS), 1))
+        ax.lane_column(self.p[b], col, 0)
+        put_lane(self.lanes, b, _BW, col[:_NQ, 0], col[ax.LANE_PLAIN, 0], _R_PLAIN)
 
     def _reset_row(self, b: int, rng: np.random.Generator) -> None:
         TU = draw(rng, self.ambient)

@@ -72,7 +72,6 @@ Version History
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -82,8 +81,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from thermogym.envs import _kernels
-from thermogym.envs import _network as _nw
 from thermogym.envs._base import (
     C_K,
     ThermoEnv,
@@ -96,7 +93,7 @@ from thermogym.envs._base import (
     steps_of,
 )
 from thermogym.envs._kernels import cache_depends_on, meas_array, measure, plant_loops
-from thermogym.envs._network import LTIEngine, lti_output, lti_update, network_plant
+from thermogym.envs._network import LTIEngine, lti_output, lti_step, network_plant
 from thermogym.envs._plant import ParamsLike
 from thermogym.envs.profiles import ambient_day
 from thermogym.errors import ConfigError
@@ -190,10 +187,10 @@ def _spindle_row(
     act,
     linear,
     x,
-    Ad,
-    Bd,
-    Hm,
-    Dm,
+    At,
+    Bt,
+    Ct,
+    Dt,
     h0,
     amb,
     acc,
@@ -225,14 +222,13 @@ def _spindle_row(
         u[1] = amb[b, min(k, na - 1)]
         if linear[b]:
             # exact ZOH step of the linear network / state space
-            lti_update(x[b], u, Ad[b], Bd[b], tmp)
+            lti_step(x[b], u, At[b], Bt[b], tmp)
         k += 1
         ctr[b, 0] = k
     u[0] = n
     u[1] = amb[b, min(k, na - 1)]
     y = sig[b]  # the seven outputs, computed once (sig holds them for the history)
-    for i in range(7):
-        y[i] = lti_output(x[b], u, Hm[b], Dm[b], h0[b], i)
+    lti_output(Ct[b], Dt[b], h0[b], x[b], u, y[:7])
     tb = max(max(y[0], y[1]), max(y[2], y[3]))
     if mode == 0:
         over = max(tb - cfg[_LIM], 0.0)
@@ -264,8 +260,8 @@ def _spindle_row(
     return 0
 
 
-cache_depends_on(_spindle_row, _nw, _kernels)
-_spindle_kernel, _spindle_parallel = plant_loops(_spindle_row, sys.modules[__name__], _nw, _kernels)
+cache_depends_on(_spindle_row)
+_spindle_kernel, _spindle_parallel = plant_loops(_spindle_row)
 
 
 class _SpindleEngine(LTIEngine):
@@ -362,8 +358,8 @@ class _SpindleEngine(LTIEngine):
         kernel = _spindle_parallel if self.parallel and self.B > 1 else _spindle_kernel
         return int(
             kernel(
-                self.active, mode, self.act, self.linear, self.x, self.Ad, self.Bd, self.Hm,
-                self.Dm, self.h0, self.amb, self.acc, self.ctr, self.noise, self.meas, self.cfgv,
+                self.active, mode, self.act, self.linear, self.x, self.At, self.Bt, self.Ct,
+                self.Dt, self.h0, self.amb, self.acc, self.ctr, self.noise, self.meas, self.cfgv,
                 self.obs, self.out, self.sig, self.scratch,
             )
         )  # fmt: skip

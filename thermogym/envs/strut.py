@@ -62,7 +62,6 @@ Version History
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -72,8 +71,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from thermogym.envs import _kernels
-from thermogym.envs import _network as _nw
 from thermogym.envs._base import (
     C_K,
     ThermoEnv,
@@ -86,7 +83,7 @@ from thermogym.envs._base import (
     steps_of,
 )
 from thermogym.envs._kernels import cache_depends_on, meas_array, measure, plant_loops
-from thermogym.envs._network import LTIEngine, lti_output, lti_update, network_plant
+from thermogym.envs._network import LTIEngine, lti_output, lti_step, network_plant
 from thermogym.envs._plant import ParamsLike
 from thermogym.errors import ConfigError
 from thermogym.models.strut import STRUT_OUTPUTS, StrutModel
@@ -166,10 +163,10 @@ def _strut_row(
     act,
     linear,
     x,
-    Ad,
-    Bd,
-    Hm,
-    Dm,
+    At,
+    Bt,
+    Ct,
+    Dt,
     h0,
     air,
     acc,
@@ -203,14 +200,13 @@ def _strut_row(
         u[0] = v
         u[1] = air[b, min(k, na - 1)]
         if linear[b]:
-            lti_update(x[b], u, Ad[b], Bd[b], tmp)
+            lti_step(x[b], u, At[b], Bt[b], tmp)
         k += 1
         ctr[b, 0] = k
     u[0] = v
     u[1] = air[b, min(k, na - 1)]
     y = sig[b]  # the eight outputs (seven temperatures, ΔL eq 5), computed once
-    for i in range(8):
-        y[i] = lti_output(x[b], u, Hm[b], Dm[b], h0[b], i)
+    lti_output(Ct[b], Dt[b], h0[b], x[b], u, y[:8])
     if mode == 0:
         dL = y[7]
         Td = y[0]
@@ -244,8 +240,8 @@ def _strut_row(
     return 0
 
 
-cache_depends_on(_strut_row, _nw, _kernels)
-_strut_kernel, _strut_parallel = plant_loops(_strut_row, sys.modules[__name__], _nw, _kernels)
+cache_depends_on(_strut_row)
+_strut_kernel, _strut_parallel = plant_loops(_strut_row)
 
 
 class _StrutEngine(LTIEngine):
@@ -359,8 +355,8 @@ class _StrutEngine(LTIEngine):
         kernel = _strut_parallel if self.parallel and self.B > 1 else _strut_kernel
         return int(
             kernel(
-                self.active, mode, self.act, self.linear, self.x, self.Ad, self.Bd, self.Hm,
-                self.Dm, self.h0, self.air_tab, self.acc, self.ctr, self.noise, self.meas,
+                self.active, mode, self.act, self.linear, self.x, self.At, self.Bt, self.Ct,
+                self.Dt, self.h0, self.air_tab, self.acc, self.ctr, self.noise, self.meas,
                 self.cfgv, self.obs, self.out, self.sig, self.scratch,
             )
         )  # fmt: skip

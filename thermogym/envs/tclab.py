@@ -78,7 +78,6 @@ Version History
 from __future__ import annotations
 
 import math
-import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
@@ -90,7 +89,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
-from thermogym.envs import _kernels
 from thermogym.envs._base import (
     C_K,
     Engine,
@@ -192,11 +190,11 @@ def _tclab_row(
         q2 = 50.0 * (min(max(a1, -1.0), 1.0) + 1.0)
         n = max(1, math.ceil(T / cfg[_HMAX] - 1e-9))
         # the model's RK4 steps over the period, heater commands held
-        _tc._advance(x[b], q1, q2, Ta, pb, T / n, n)
+        _tc.advance(x[b], q1, q2, Ta, pb, T / n, n)
         s = sp[b, min(k // hold, nseg - 1)]
         e1 = x[b, 2] - s[0]
         e2 = x[b, 3] - s[1]
-        P = pb[_tc._I_A1] * q1 + pb[_tc._I_A2] * q2
+        P = _tc.heater_power(pb, q1, q2)
         acc[b, _A_E] += P * T
         acc[b, _A_SSE] += e1 * e1 + e2 * e2
         acc[b, _A_IAE] += (abs(e1) + abs(e2)) * T
@@ -238,8 +236,8 @@ def _tclab_row(
     return 0
 
 
-cache_depends_on(_tclab_row, _tc, _kernels)
-_tclab_kernel, _tclab_parallel = plant_loops(_tclab_row, sys.modules[__name__], _tc, _kernels)
+cache_depends_on(_tclab_row)
+_tclab_kernel, _tclab_parallel = plant_loops(_tclab_row)
 
 
 class _TCLabEngine(Engine):

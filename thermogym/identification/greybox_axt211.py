@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from scipy import stats
 from scipy.ndimage import uniform_filter1d
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError, RecordingError, ShapeError
 from thermogym.fitresult import FitResult, data_entry
 from thermogym.identification.coordinator import IdentificationResult, run_identification
@@ -47,7 +48,9 @@ from thermogym.identification.metrics import accuracy_xi
 from thermogym.identification.problem import FreeParameter, Problem
 from thermogym.identification.simmodel import SimBatch
 from thermogym.identification.uncertainty import covariance_from_jacobian, estimate_input_noise
+from thermogym.models import axt211_dynamics as ax
 from thermogym.models.axt211 import AXT211, AXT211_PARAMETERS, ptc_resistance
+from thermogym.models.integrators import rk4_accumulate, rk4_finish, rk4_stage_input
 from thermogym.recording import Recording
 
 __all__ = [
@@ -68,6 +71,7 @@ THERMAL: tuple[str, ...] = ("C_P", "lambda_PG", "C_G", "lambda_GU")
 MECHANICAL: tuple[str, ...] = ("T_P0", "kP_a", "kP_b", "kP_c", "tau_P")
 _T_LO, _T_HI = 30.0, 101.0
 _SPEC = {p.name: p for p in AXT211_PARAMETERS}
+_NOMINAL_FULL = np.array([p.nominal for p in ax.FULL_PARAMETERS])
 
 
 # ------------------------------------------------------------------ PTC model
@@ -163,21 +167,13 @@ def fit_ptc_polynomial(
 
 # -------------------------------------------------------- mechanical submodel
 @nb.njit(cache=True)
-def _mech_kernel(theta, TP, h, nsub, y):  # pragma: no cover - numba
-    B, T = theta.shape[0], TP.shape[0]
+def _mech_kernel(full, TP, h, nsub, y):  # pragma: no cover - numba
+    # (19)-(21) of the model (axt211_dynamics.stroke_rate, constrain) by its RK4 stages,
+    # with the wax temperature linear between the samples
+    B, T = full.shape[0], TP.shape[0]
     for b in range(B):
-        T0, ka, kb, kc, tau, xmax, c = (
-            theta[b, 0],
-            theta[b, 1],
-            theta[b, 2],
-            theta[b, 3],
-            theta[b, 4],
-            theta[b, 5],
-            theta[b, 6],
-        )
-        lo, hi = -c, xmax + c
-        f = np.empty(4)
-        xP, xV = lo, 0.0  # rest: cartridge retracted, valve shut
+        q = ax.coefficients(full[b])
+        xP, xV = q[ax.Q_LO], 0.0  # rest: cartridge retracted, valve shut
         for k in range(T):
             y[b, k, 0] = xP
             y[b, k, 1] = xV
@@ -185,24 +181,15 @@ def _mech_kernel(theta, TP, h, nsub, y):  # pragma: no cover - numba
                 break
             Ta, Tb = TP[k], TP[k + 1]
             for s in range(nsub):
-                # wax temperature linear between samples; classical RK4 on (19)
-                for st in range(4):
-                    frac = (s + (0.0, 0.5, 0.5, 1.0)[st]) / nsub
-                    Tt = Ta + frac * (Tb - Ta)
-                    if st == 0:
-                        x = xP
-                    elif st < 3:
-                        x = xP + 0.5 * h * f[st - 1]
-                    else:
-                        x = xP + h * f[2]
-                    xpos = max(x, 0.0)
-                    d = (((ka * xpos + kb) * xpos + kc) * (Tt - T0) - x) / tau  # (19), (21)
-                    if (x >= hi and d > 0.0) or (x <= lo and d < 0.0):
-                        d = 0.0
-                    f[st] = d
-                xP = xP + h / 6.0 * (f[0] + 2.0 * f[1] + 2.0 * f[2] + f[3])
-                xP = min(max(xP, lo), hi)
-                xV = min(max(min(max(xV, xP - c), xP + c), 0.0), xmax)  # (20)
+                x = (xP,)
+                f = x
+                acc = x
+                for st in range(1, 5):
+                    frac = (s + (0.0, 0.5, 0.5, 1.0)[st - 1]) / nsub
+                    xs = rk4_stage_input(x, f, h, st)
+                    f = (ax.stroke_rate(Ta + frac * (Tb - Ta), xs[0], q),)
+                    acc = rk4_accumulate(acc, f, st)
+                xP, xV = ax.constrain(rk4_finish(x, h, acc)[0], xV, q)
 
 
 class AXT211Mechanics:
@@ -289,7 +276,9 @@ class AXT211Mechanics:
             for i in np.flatnonzero(bad):
                 errors[i] = "tau_P and x_max must be positive and c_backlash >= 0"
             full = np.where(bad[:, None], self._base[None], full)
-        _mech_kernel(np.ascontiguousarray(full), TP, dt / n, n, y)
+        kern = np.repeat(_NOMINAL_FULL[None], B, axis=0)  # the model's full parameter vector
+        kern[:, [ax.FULL_INDEX[k] for k in self.all_names]] = full
+        _mech_kernel(kern, TP, dt / n, n, y)
         y[bad] = np.nan
         return SimBatch(y, errors)
 
@@ -816,3 +805,7 @@ def _xi_submodels(params: dict[str, float], rec: Recording) -> dict[str, float]:
         "thermal": float(accuracy_xi(rec["T_P"], sim.output("T_P")[0])),
         "mechanical": float(accuracy_xi(rec["x_V"], xv)),
     }
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

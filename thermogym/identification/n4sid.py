@@ -78,6 +78,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 from scipy.signal import fftconvolve
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.fitresult import FitResult
 from thermogym.identification.advice import check_fit
@@ -91,6 +92,7 @@ from thermogym.identification.linear_fit import (
 )
 from thermogym.models._blas import blas_threads, single_blas_thread
 from thermogym.models.linear import StateSpaceModel, c2d_zoh, d2c_zoh
+from thermogym.models.lti import lti_output, lti_update
 from thermogym.recording import Recording
 
 __all__ = [
@@ -136,30 +138,19 @@ def _obs_seq(A, C, N):  # pragma: no cover - numba
 def _sim(A, B, C, D, u, x0):  # pragma: no cover - numba
     """y[k] = C x + D u, x[k+1] = A x + B u; returns y, shape (T, p).
 
-    Row-major dot products with ``fastmath`` (reassociated sums, SIMD): 2-3x
-    faster than strict order; results differ from it only in the last bits.
+    The package's linear recursion (:mod:`thermogym.models.lti`) compiled with
+    ``fastmath`` (reassociated sums, SIMD); results differ from the strict order
+    only in the last bits.
     """
-    T, m = u.shape
-    n = A.shape[0]
-    p = C.shape[0]
-    y = np.empty((T, p))
+    T = u.shape[0]
+    y = np.empty((T, C.shape[0]))
+    At, Bt, Ct, Dt = A.T.copy(), B.T.copy(), C.T.copy(), D.T.copy()
+    zero = np.zeros(C.shape[0])
     x = x0.copy()
-    xn = np.empty(n)
+    xn = np.empty(A.shape[0])
     for k in range(T):
-        for r in range(p):
-            acc = 0.0
-            for j in range(n):
-                acc += C[r, j] * x[j]
-            for j in range(m):
-                acc += D[r, j] * u[k, j]
-            y[k, r] = acc
-        for r in range(n):
-            acc = 0.0
-            for j in range(n):
-                acc += A[r, j] * x[j]
-            for j in range(m):
-                acc += B[r, j] * u[k, j]
-            xn[r] = acc
+        lti_output(Ct, Dt, zero, x, u[k], y[k])
+        lti_update(At, Bt, x, u[k], xn)
         x, xn = xn, x
     return y
 
@@ -167,20 +158,14 @@ def _sim(A, B, C, D, u, x0):  # pragma: no cover - numba
 @nb.njit(cache=True, fastmath=True)
 def _states(A, B, u, x0):  # pragma: no cover - numba
     """x[k] for k = 0..T−1 with x[k+1] = A x[k] + B u[k]; shape (T, n)."""
-    T, m = u.shape
-    n = A.shape[0]
-    X = np.empty((T, n))
+    T = u.shape[0]
+    X = np.empty((T, A.shape[0]))
+    At, Bt = A.T.copy(), B.T.copy()
     x = x0.copy()
-    xn = np.empty(n)
+    xn = np.empty(A.shape[0])
     for k in range(T):
         X[k] = x
-        for r in range(n):
-            acc = 0.0
-            for j in range(n):
-                acc += A[r, j] * x[j]
-            for j in range(m):
-                acc += B[r, j] * u[k, j]
-            xn[r] = acc
+        lti_update(At, Bt, x, u[k], xn)
         x, xn = xn, x
     return X
 
@@ -1425,3 +1410,7 @@ def n4sid(
         arrays={"singular_values": dec.singular_values.tolist()},
     )
     return N4SIDResult(fit, system, dec, int(order), source, seconds)
+
+
+# the kernels above inline the shared linear recursion (derived cache dependencies)
+module_kernels_depend_on(globals())

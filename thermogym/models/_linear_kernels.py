@@ -12,6 +12,9 @@ import math
 import numba as nb
 import numpy as np
 
+from thermogym._jitcache import module_kernels_depend_on
+from thermogym.models.lti import lti_output, lti_update
+
 __all__: list[str] = []
 
 
@@ -21,12 +24,12 @@ __all__: list[str] = []
 # reordering a floating-point sum.
 @nb.njit(cache=True)
 def _ss_simulate_kernel(At, Bt_, Ct, Dt, u, x0, nsub, y, xs, keep):  # pragma: no cover
-    nb_, T, m = At.shape[0], u.shape[1], u.shape[2]
+    nb_, T = At.shape[0], u.shape[1]
     n = At.shape[1]
     p = Ct.shape[2]
     x = np.empty(n)
     xn = np.empty(n)
-    yk = np.empty(p)
+    zero = np.zeros(p)
     for b in range(nb_):
         ub = b if u.shape[0] > 1 else 0
         Ab, Bb, Cb, Db = At[b], Bt_[b], Ct[b], Dt[b]
@@ -34,17 +37,7 @@ def _ss_simulate_kernel(At, Bt_, Ct, Dt, u, x0, nsub, y, xs, keep):  # pragma: n
             x[i] = x0[b, i]
         for k in range(T):
             # y[k] = C x[k] + D u[k]                      (3) in 001_6d13a2cd04f5de5e.txt
-            yk[:] = 0.0
-            for j in range(n):
-                xj = x[j]
-                for i in range(p):
-                    yk[i] += Cb[j, i] * xj
-            for j in range(m):
-                uj = u[ub, k, j]
-                for i in range(p):
-                    yk[i] += Db[j, i] * uj
-            for i in range(p):
-                y[b, k, i] = yk[i]
+            lti_output(Cb, Db, zero, x, u[ub, k], y[b, k])
             if keep:
                 for i in range(n):
                     xs[b, k, i] = x[i]
@@ -52,15 +45,7 @@ def _ss_simulate_kernel(At, Bt_, Ct, Dt, u, x0, nsub, y, xs, keep):  # pragma: n
                 break
             for _ in range(nsub):
                 # x[k+1] = A x[k] + B u[k]   (e = 0)      (3) in 001_6d13a2cd04f5de5e.txt
-                xn[:] = 0.0
-                for j in range(n):
-                    xj = x[j]
-                    for i in range(n):
-                        xn[i] += Ab[j, i] * xj
-                for j in range(m):
-                    uj = u[ub, k, j]
-                    for i in range(n):
-                        xn[i] += Bb[j, i] * uj
+                lti_update(Ab, Bb, x, u[ub, k], xn)
                 x[:] = xn
 
 
@@ -170,3 +155,7 @@ def _obs_rows(M, A, out):  # pragma: no cover - numba
         for r in range(p):
             for c in range(n):
                 M[r, c] = tmp[r, c]
+
+
+# the kernels above inline the shared linear recursion (derived cache dependencies)
+module_kernels_depend_on(globals())

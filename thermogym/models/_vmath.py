@@ -1,4 +1,7 @@
-"""A power function that compiles to vector code: ``x ** y`` for the room model's power laws.
+"""Math that compiles to vector code: ``x ** y`` for the room model's power laws, min and max.
+
+:func:`vmin` and :func:`vmax` are numba's builtins written out, so that they always inline
+into a loop over lanes (branch-free kernels of the AXT211 and the room).
 
 numba calls libm's ``pow`` once per value; LLVM cannot vectorise such a call without
 Intel's SVML, so in the AXT211Room environment's lockstep kernel the radiator law
@@ -33,7 +36,7 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-__all__ = ["vexp", "vlog", "vpow"]
+__all__ = ["vexp", "vlog", "vmax", "vmin", "vpow"]
 
 
 @intrinsic
@@ -87,6 +90,22 @@ _MANT = 0x000FFFFFFFFFFFFF
 _ONE_BITS = 0x3FF0000000000000
 _TINY = 1e-200
 _INF = float("inf")
+
+
+@nb.njit(cache=True, inline="always")
+def vmax(a: float, b: float) -> float:
+    """``max(a, b)`` as numba's builtin (``b if b > a else a``; NaN in ``a`` propagates).
+
+    Written out: numba's builtin is a separate overload that does not always inline into
+    a loop, and a loop with a call in it does not vectorise.
+    """
+    return b if b > a else a
+
+
+@nb.njit(cache=True, inline="always")
+def vmin(a: float, b: float) -> float:
+    """``min(a, b)`` as numba's builtin (``b if b < a else a``), written out (see :func:`vmax`)."""
+    return b if b < a else a
 
 
 @nb.njit(cache=True, inline="always")

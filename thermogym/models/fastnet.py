@@ -30,8 +30,10 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError
 from thermogym.models.base import Model, Parameter
+from thermogym.models.lti import lti_output, lti_update, transposed
 from thermogym.models.thermal_network import (
     NetworkArrays,
     ThermalNetworkModel,
@@ -55,30 +57,23 @@ def _zoh(
 
 
 @nb.njit(cache=True)
-def _switched_kernel(Ad, Bd, H, h0, x0, U, seg, y):  # pragma: no cover - numba
+def _switched_kernel(At, Bt, Ht, h0, x0, U, seg, y):  # pragma: no cover - numba
+    # transposed matrices per level (thermogym.models.lti); y = H x + h0
     B, T = y.shape[0], y.shape[1]
-    n, m, ny = Ad.shape[2], Bd.shape[3], H.shape[0]
+    n = At.shape[2]
     x = np.empty(n)
     xn = np.empty(n)
+    no_u = np.empty(0)
+    no_D = np.empty((0, Ht.shape[1]))
     for b in range(B):
         x[:] = x0[b]
         ub = U[b if U.shape[0] > 1 else 0]
         for k in range(T):
-            for i in range(ny):
-                s = h0[b, i]
-                for j in range(n):
-                    s += H[i, j] * x[j]
-                y[b, k, i] = s
+            lti_output(Ht, no_D, h0[b], x, no_u, y[b, k])
             if k + 1 == T:
                 break
             lv = seg[b if seg.shape[0] > 1 else 0, k]
-            for i in range(n):
-                s = 0.0
-                for j in range(n):
-                    s += Ad[b, lv, i, j] * x[j]
-                for j in range(m):
-                    s += Bd[b, lv, i, j] * ub[k, j]
-                xn[i] = s
+            lti_update(At[b, lv], Bt[b, lv], x, ub[k], xn)
             x[:] = xn
 
 
@@ -127,8 +122,8 @@ class SwitchedNetwork(Model):
 
     def _simulate(self, theta, u, dt, x0, return_states):
         p = self.plant
-        full = p._layout.full_theta(theta)
-        eff = p._effect_values(full)  # alpha, beta, gamma, drift per set
+        full = p.full_theta(theta)
+        eff = p.effect_values(full)  # alpha, beta, gamma, drift per set
         B, T = theta.shape[0], u.shape[1]
         nu = len(p.inputs)
         ub = np.array(np.broadcast_to(u, (B, *u.shape[1:])), dtype=float, copy=True)
@@ -144,7 +139,7 @@ class SwitchedNetwork(Model):
                     v = v * (1.0 + d * t_mid / 3600.0)  # q (1 + δ t/1 h), mid-interval
                 ub[b, :, k] = v
         net = p.network(full)
-        mask = p._forced_mask.astype(float)
+        mask = p.forced_mask.astype(float)
         # the conductance factor depends on |u_1| only: one discretisation per distinct level
         levels = np.unique(np.round(np.abs(np.asarray(u)[..., 0]), 9))
         if levels.size > _MAX_LEVELS:
@@ -166,9 +161,9 @@ class SwitchedNetwork(Model):
         Ad, Bd = Ad.reshape(B, L, n, n), Bd.reshape(B, L, n, m)
         y = np.empty((B, T, net.H.shape[0]))
         _switched_kernel(
-            np.ascontiguousarray(Ad),
-            np.ascontiguousarray(Bd),
-            np.ascontiguousarray(net.H),
+            transposed(Ad),
+            transposed(Bd),
+            transposed(net.H),
             np.ascontiguousarray(net.h0),
             np.ascontiguousarray(x0),
             np.ascontiguousarray(ub),
@@ -222,16 +217,16 @@ class LossNetwork(SwitchedNetwork):
     def substeps(self, theta: NDArray[np.float64], dt: float) -> int:
         """RK4 sub-steps per sample [-] for the parameter sets ``theta`` (B, P)."""
         p = self.plant
-        full = p._layout.full_theta(theta)
+        full = p.full_theta(theta)
         A, _ = network_matrices(p.network(full))
         rho = max(float(np.max(np.abs(np.linalg.eigvals(a)))) for a in A)
-        gam = max(float(np.max(p._effect_values(full)[:, 2])), 0.0)
+        gam = max(float(np.max(p.effect_values(full)[:, 2])), 0.0)
         return max(1, math.ceil(dt * rho * (1.0 + 2.0 * gam * _DT_SPAN / p.dT_ref)))
 
     def _simulate(self, theta, u, dt, x0, return_states):
         p = self.plant
         # γ = 0: the plant's exact discretisation; otherwise its RK4 with these sub-steps
-        nsub = None if p._is_linear(p._layout.full_theta(theta)) else self.substeps(theta, dt)
+        nsub = None if p.is_linear(p.full_theta(theta)) else self.substeps(theta, dt)
         return p.simulate_network(theta, u, dt, x0, return_states=return_states, substeps=nsub)
 
 
@@ -359,3 +354,7 @@ class ExtraNodeNetwork(Model):
     def _output(self, x, u, theta):
         net = self.arrays(theta)
         return np.einsum("ij,bj->bi", net.H, x) + net.h0
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

@@ -187,411 +187,50 @@ from numpy.typing import ArrayLike, NDArray
 
 from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError, ParameterError, ShapeError
-from thermogym.models import _vmath
-from thermogym.models import axt211 as _axt211_module
+from thermogym.models import axt211_dynamics as ax
+from thermogym.models import room_dynamics as dyn
 from thermogym.models._effects import EffectLayout
-from thermogym.models._vmath import vpow
-from thermogym.models.axt211 import (
-    _I_C,
-    _I_CG,
-    _I_CP,
-    _I_TAU,
-    _I_XMAX,
-    _N_LANE,
-    AXT211_EFFECTS,
-    AXT211_PARAMETERS,
-    AXT211_SIGNALS,
-    _backlash,
-    _backlash_lane,
-    _lane_column,
-    _power,
-    _rhs,
-    _rhs_lane,
-)
-from thermogym.models.base import Model, Parameter, Signal
+from thermogym.models.axt211_dynamics import AXT211_EFFECTS, AXT211_PARAMETERS
+from thermogym.models.base import Model
+from thermogym.models.room_dynamics import ROOM_PARAMETERS, ROOM_SIGNALS, T_DESIGN
 
 __all__ = ["MODELS", "ROOM_PARAMETERS", "ROOM_SIGNALS", "VALVES", "RoomModel", "valve_flow"]
 
 #: Valve characteristics and their kernel codes.
 VALVES: dict[str, int] = {"linear": 0, "equal_percentage": 1}
 
-_C = "chosen here"
-_T_DESIGN = 20.0  # design indoor temperature and heating-curve foot point [°C]
-_H0 = 0.05  # relative stroke below which the equal-percentage valve closes linearly
-
-ROOM_SIGNALS: tuple[Signal, ...] = (
-    AXT211_SIGNALS[0],
-    AXT211_SIGNALS[1],
-    Signal("T_out", "disturbance", "°C", "outdoor air temperature"),
-    Signal("Q_int", "disturbance", "W", "internal and solar heat gains of the zone"),
-    Signal("T_zone", "output", "°C", "zone air (and furniture) temperature"),
-    Signal("T_struct", "output", "°C", "building structure temperature"),
-    Signal("T_rad", "output", "°C", "radiator water (outlet) temperature"),
-    Signal("T_supply", "output", "°C", "supply water temperature from the heating curve"),
-    Signal("Q_heat", "output", "W", "heat emitted by the radiator into the zone"),
-    Signal("x_V", "output", "mm", "valve stroke (0 = shut)"),
-    Signal("x_P", "output", "mm", "wax cartridge stroke (from the rod contact point)"),
-    Signal("P_PTC", "output", "W", "actuator PTC power consumption (15)"),
-    Signal("T_P", "output", "°C", "actuator wax cartridge temperature"),
-    Signal("T_G", "output", "°C", "actuator housing temperature"),
-)
-
-ROOM_PARAMETERS: tuple[Parameter, ...] = (
-    Parameter(
-        "C_a",
-        3.0e5,
-        3.0e4,
-        3.0e6,
-        "J/K",
-        "heat capacity of the zone air and furniture",
-        _C + ": air 65 kJ/K + furniture and light internal mass of a 20 m² office",
-        "zone",
-    ),
-    Parameter(
-        "C_s",
-        3.3e6,
-        3.0e5,
-        3.0e7,
-        "J/K",
-        "effective heat capacity of the building structure",
-        "ISO 13790:2008 Table 12, medium class 165 kJ/(m²K) × 20 m² floor",
-        "zone",
-    ),
-    Parameter(
-        "H_as",
-        455.0,
-        50.0,
-        3000.0,
-        "W/K",
-        "conductance zone air ↔ structure (surface heat transfer)",
-        "ISO 13790:2008 5R1C: h_ms A_m = 9.1 W/(m²K) × 2.5 × 20 m² (medium class)",
-        "zone",
-    ),
-    Parameter(
-        "H_ao",
-        13.0,
-        0.5,
-        300.0,
-        "W/K",
-        "conductance zone air ↔ outdoor (ventilation, windows)",
-        _C + ": 0.5 1/h × 54 m³ × 0.34 Wh/(m³K) + 3 m² window at 1.3 W/(m²K)",
-        "zone",
-    ),
-    Parameter(
-        "H_so",
-        21.3,
-        0.5,
-        300.0,
-        "W/K",
-        "conductance structure ↔ outdoor (opaque envelope)",
-        _C + ": design load 1.0 kW at 20 °C inside, −10 °C outside",
-        "zone",
-    ),
-    Parameter(
-        "f_int",
-        0.5,
-        0.0,
-        1.0,
-        "1",
-        "fraction of Q_int released into the zone air (rest into the structure)",
-        "ISO 13790:2008 annex C: half of the internal gains to the air node",
-        "zone",
-    ),
-    Parameter(
-        "Q_rad_nom",
-        1200.0,
-        100.0,
-        10000.0,
-        "W",
-        "radiator output at design supply/return, room 20 °C, full flow",
-        _C + ": 1.2 × the 1.0 kW design heat load",
-        "radiator",
-    ),
-    Parameter(
-        "n_rad",
-        1.3,
-        1.0,
-        1.6,
-        "1",
-        "radiator exponent of Φ = K ΔT^n",
-        "EN 442-2 characteristic; 1.25-1.35 for panel radiators",
-        "radiator",
-    ),
-    Parameter(
-        "dT_w_nom",
-        10.0,
-        2.0,
-        40.0,
-        "K",
-        "design water temperature drop (sets the design flow)",
-        _C + ": 55/45 °C system",
-        "radiator",
-    ),
-    Parameter(
-        "C_rad",
-        3.8e4,
-        2.0e3,
-        5.0e5,
-        "J/K",
-        "heat capacity of the radiator with its water",
-        _C + ": double panel radiator, ~6 l water + ~28 kg steel",
-        "radiator",
-    ),
-    Parameter(
-        "T_out_d",
-        -10.0,
-        -40.0,
-        10.0,
-        "°C",
-        "design outdoor temperature (heating-curve design point)",
-        _C + ": central European design outdoor temperature",
-        "heating_curve",
-    ),
-    Parameter(
-        "T_sup_d",
-        55.0,
-        25.0,
-        95.0,
-        "°C",
-        "supply temperature at the design outdoor temperature",
-        _C + ": low-temperature radiator system",
-        "heating_curve",
-    ),
-    Parameter(
-        "T_sup_20",
-        20.0,
-        10.0,
-        45.0,
-        "°C",
-        "supply temperature at 20 °C outdoor (heating-curve foot point)",
-        _C + ": foot point at the room set point",
-        "heating_curve",
-    ),
-    Parameter(
-        "R_v",
-        25.0,
-        2.0,
-        200.0,
-        "1",
-        "rangeability of the equal-percentage valve",
-        _C + ": small equal-percentage radiator valve",
-        "valve",
-    ),
-)
-
-# Kernel layout: the AXT211 kernel's full vector (base + every effect) followed by the room's.
-_NA = 22
-_I_CA, _I_CS, _I_HAS, _I_HAO, _I_HSO, _I_FINT = 22, 23, 24, 25, 26, 27
-_I_QN, _I_NR, _I_DTW, _I_CR = 28, 29, 30, 31
-_I_TOD, _I_TSD, _I_TS20, _I_RV = 32, 33, 34, 35
 _NX, _NY = 7, 10
 
-_AXT_FULL = len(AXT211_PARAMETERS) + sum(len(e.parameters) for e in AXT211_EFFECTS.values())
-if _AXT_FULL != _NA or [p.name for p in ROOM_PARAMETERS][_I_RV - _NA] != "R_v":
-    raise ImportError(
-        f"thermogym.models.room expects the AXT211 kernel vector to have {_NA} entries, it has "
-        f"{_AXT_FULL}; update the _I_* indices of room.py"
-    )
 
-
-# ----------------------------------------------------------------------------- kernels
 @nb.njit(cache=True, inline="always")
 def _valve(h: float, Rv: float, kind: int) -> float:
-    # relative flow φ(h); linear, or equal percentage R_v^(h−1) with a linear leak-off
-    if h <= 0.0:
-        return 0.0
-    if h >= 1.0:
-        return 1.0
-    if kind == 0:
-        return h
-    if h < _H0:
-        return h / _H0 * Rv ** (_H0 - 1.0)
-    return vpow(Rv, h - 1.0)
-
-
-@nb.njit(cache=True, inline="always")
-def _supply(Tout: float, p: NDArray[np.float64]) -> float:
-    # heating curve, linear in T_out between T_out_d and 20 °C, clipped outside
-    return _supply_at(Tout, p[_I_TOD], p[_I_TS20], p[_I_TSD])
-
-
-@nb.njit(cache=True, inline="always")
-def _supply_at(Tout: float, Td: float, Ts20: float, Tsd: float) -> float:
-    # _supply from the parameters T_out_d, T_sup_20, T_sup_d
-    To = min(max(Tout, Td), _T_DESIGN)
-    return Ts20 + (Tsd - Ts20) * (_T_DESIGN - To) / (_T_DESIGN - Td)
-
-
-@nb.njit(cache=True, inline="always")
-def _emission(Tr: float, Ta: float, p: NDArray[np.float64], iref: float) -> float:
-    # Q_heat = Q_rad_nom sgn(Δ)|Δ/ΔT_ref|^n_rad (EN 442-2); iref = 1/ΔT_ref
-    d = Tr - Ta
-    q = p[_I_QN] * vpow(abs(d) * iref, p[_I_NR])
-    return q if d >= 0.0 else -q
-
-
-@nb.njit(cache=True, inline="always")
-def _inv_ref(p: NDArray[np.float64]) -> float:
-    # 1/ΔT_ref, ΔT_ref = T_sup_d − ΔT_w,nom − 20 °C: radiator excess temperature at design
-    return 1.0 / (p[_I_TSD] - p[_I_DTW] - _T_DESIGN)
-
-
-@nb.njit(cache=True, inline="always")
-def _deriv(
-    TP: float,
-    TG: float,
-    xP: float,
-    Tr: float,
-    Ta: float,
-    Ts: float,
-    xV0: float,
-    u: float,
-    kU: float,
-    Tsup: float,
-    Tout: float,
-    Qint: float,
-    p: NDArray[np.float64],
-    kind: int,
-    k: tuple[float, float, float, float, float, float, float, float, float],
-) -> tuple[float, float, float, float, float, float]:
-    # k: per-call constants, see _advance
-    mcn, icr, ica, ics, iref, ixmax, icp, icg, itau = k
-    # actuator (17)-(19), its environment is the zone air: T_U = T_zone
-    dTP, dTG, dxP = _rhs(TP, TG, xP, u, kU, Ta, p, icp, icg, itau)
-    # (20) at this stage, from the valve stroke at the start of the step
-    xV = _backlash(xP, xV0, p[_I_C], p[_I_XMAX])
-    phi = _valve(xV * ixmax, p[_I_RV], kind)
-    Q = _emission(Tr, Ta, p, iref)
-    # C_rad dT_rad/dt = ṁ c_w (T_sup − T_rad) − Q_heat,  ṁ c_w = φ Q_rad_nom / ΔT_w,nom
-    dTr = (phi * mcn * (Tsup - Tr) - Q) * icr
-    f = p[_I_FINT]
-    q_as = p[_I_HAS] * (Ts - Ta)
-    # C_a dT_a/dt = Q_heat + f Q_int + H_as (T_s − T_a) + H_ao (T_out − T_a)
-    dTa = (Q + f * Qint + q_as + p[_I_HAO] * (Tout - Ta)) * ica
-    # C_s dT_s/dt = H_as (T_a − T_s) + H_so (T_out − T_s) + (1 − f) Q_int
-    dTs = (-q_as + p[_I_HSO] * (Tout - Ts) + (1.0 - f) * Qint) * ics
-    return dTP, dTG, dxP, dTr, dTa, dTs
+    # relative flow φ(h) of dyn.flow for a rangeability R_v (valve_flow)
+    pwv = dyn.power_law(Rv, h - 1.0) if kind != 0 else 0.0
+    return dyn.flow(h, pwv, Rv ** (dyn.H0 - 1.0), kind)
 
 
 @nb.njit(cache=True)
-def _advance(
-    x: NDArray[np.float64],
-    u: float,
-    kU: float,
-    Tout: float,
-    Qint: float,
-    p: NDArray[np.float64],
-    h: float,
-    n: int,
-    kind: int,
-) -> None:
-    TP, TG, xP, xV, Tr, Ta, Ts = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
-    c = p[_I_C]
-    xmax = p[_I_XMAX]
-    lo = -c
-    hi = xmax + c
-    Tsup = _supply(Tout, p)  # T_out is held over the sample
-    # ṁ_nom c_w, 1/C_rad, 1/C_a, 1/C_s, 1/ΔT_ref, 1/x_max, then 1/C_P, 1/C_G, 1/τ_P for axt211._rhs
-    k = (
-        p[_I_QN] / p[_I_DTW],
-        1.0 / p[_I_CR],
-        1.0 / p[_I_CA],
-        1.0 / p[_I_CS],
-        _inv_ref(p),
-        1.0 / xmax,
-        1.0 / p[_I_CP],
-        1.0 / p[_I_CG],
-        1.0 / p[_I_TAU],
-    )
-    hh = 0.5 * h
-    w = h / 6.0
-    for _ in range(n):
-        # classical RK4, fixed step h, all seven states together
-        a1, b1, c1, d1, e1, f1 = _deriv(
-            TP, TG, xP, Tr, Ta, Ts, xV, u, kU, Tsup, Tout, Qint, p, kind, k
-        )
-        a2, b2, c2, d2, e2, f2 = _deriv(
-            TP + hh * a1, TG + hh * b1, xP + hh * c1, Tr + hh * d1, Ta + hh * e1, Ts + hh * f1,
-            xV, u, kU, Tsup, Tout, Qint, p, kind, k,
-        )  # fmt: skip
-        a3, b3, c3, d3, e3, f3 = _deriv(
-            TP + hh * a2, TG + hh * b2, xP + hh * c2, Tr + hh * d2, Ta + hh * e2, Ts + hh * f2,
-            xV, u, kU, Tsup, Tout, Qint, p, kind, k,
-        )  # fmt: skip
-        a4, b4, c4, d4, e4, f4 = _deriv(
-            TP + h * a3, TG + h * b3, xP + h * c3, Tr + h * d3, Ta + h * e3, Ts + h * f3,
-            xV, u, kU, Tsup, Tout, Qint, p, kind, k,
-        )  # fmt: skip
-        TP += w * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
-        TG += w * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
-        xP += w * (c1 + 2.0 * c2 + 2.0 * c3 + c4)
-        Tr += w * (d1 + 2.0 * d2 + 2.0 * d3 + d4)
-        Ta += w * (e1 + 2.0 * e2 + 2.0 * e3 + e4)
-        Ts += w * (f1 + 2.0 * f2 + 2.0 * f3 + f4)
-        # end stops and (20), as in axt211._advance
-        xP = min(max(xP, lo), hi)
-        xV = _backlash(xP, xV, c, xmax)
-    x[0], x[1], x[2], x[3], x[4], x[5], x[6] = TP, TG, xP, xV, Tr, Ta, Ts
-
-
-@nb.njit(cache=True)
-def _outputs(
-    x: NDArray[np.float64],
-    u: float,
-    kU: float,
-    Tout: float,
-    p: NDArray[np.float64],
-    y: NDArray[np.float64],
-) -> None:
-    P, _ = _power(x[0], u, kU, p)  # (15)
-    y[0] = x[5]
-    y[1] = x[6]
-    y[2] = x[4]
-    y[3] = _supply(Tout, p)
-    y[4] = _emission(x[4], x[5], p, _inv_ref(p))
-    y[5] = x[3]
-    y[6] = x[2]
-    y[7] = P
-    y[8] = x[0]
-    y[9] = x[1]
-
-
-@nb.njit(cache=True)
-def _simulate_one(
-    p: NDArray[np.float64],
-    u: NDArray[np.float64],
-    x0: NDArray[np.float64],
-    h: float,
-    n: int,
-    kind: int,
-    y: NDArray[np.float64],
-    xs: NDArray[np.float64],
-    keep: bool,
-) -> None:
+def _simulate_one(p, u, x0, h, n, kind, y, xs, keep):  # type: ignore[no-untyped-def]  # pragma: no cover
     # one system over the whole grid: y[k] = h(x[k]), x[k+1] = Φ(x[k], u[k])
-    x = x0.copy()
+    q, r, e = ax.coefficients(p), dyn.coefficients(p), ax.effect_coefficients(p)
+    Rs = p[ax.I_RS]
+    x = (x0[0], x0[1], x0[2], x0[3], x0[4], x0[5], x0[6])
     T = u.shape[0]
     for k in range(T):
-        uk = u[k]
-        _outputs(x, uk[0], uk[1], uk[2], p, y[k])
+        v = u[k, 1] * u[k, 0]
+        Tsup = dyn.supply(u[k, 2], p)  # T_out is held over the sample
+        yk = dyn.outputs(x, v * v, Tsup, q, r, Rs)
+        for j in range(_NY):
+            y[k, j] = yk[j]
         if keep:
-            xs[k, :] = x
+            for j in range(_NX):
+                xs[k, j] = x[j]
         if k + 1 < T:
-            _advance(x, uk[0], uk[1], uk[2], uk[3], p, h, n, kind)
+            x = dyn.advance(x, v * v, Tsup, u[k, 2], u[k, 3], h, n, q, r, e, kind)
 
 
 @nb.njit(cache=True)
-def _simulate_serial(
-    theta: NDArray[np.float64],
-    u: NDArray[np.float64],
-    x0: NDArray[np.float64],
-    h: float,
-    n: int,
-    kind: int,
-    y: NDArray[np.float64],
-    xs: NDArray[np.float64],
-    keep: bool,
-) -> None:
+def _simulate_serial(theta, u, x0, h, n, kind, y, xs, keep):  # type: ignore[no-untyped-def]  # pragma: no cover
     # u has B rows, or one row shared by the batch; xs has B rows when keep
     for b in range(y.shape[0]):
         ub = u[0] if u.shape[0] == 1 else u[b]
@@ -599,17 +238,7 @@ def _simulate_serial(
 
 
 @nb.njit(cache=True, parallel=True)
-def _simulate_parallel(
-    theta: NDArray[np.float64],
-    u: NDArray[np.float64],
-    x0: NDArray[np.float64],
-    h: float,
-    n: int,
-    kind: int,
-    y: NDArray[np.float64],
-    xs: NDArray[np.float64],
-    keep: bool,
-) -> None:
+def _simulate_parallel(theta, u, x0, h, n, kind, y, xs, keep):  # type: ignore[no-untyped-def]  # pragma: no cover
     # one system per thread; each writes only its own rows, so results equal the serial ones
     for b in nb.prange(y.shape[0]):
         i = np.int64(b)  # the prange index is unsigned; keep index arithmetic signed
@@ -624,7 +253,7 @@ _PARALLEL_MIN_BATCH = 32
 
 
 @nb.njit(cache=True)
-def _bad_input_row(u: NDArray[np.float64]) -> int:
+def _bad_input_row(u: NDArray[np.float64]) -> int:  # pragma: no cover - numba
     # first row with u outside [0, 1], k_U < 0 or a non-finite value; −1 when all are valid
     for b in range(u.shape[0]):
         ub = u[b]
@@ -643,16 +272,7 @@ def _fill(p: NDArray[np.float64], theta_b: NDArray[np.float64], cols: NDArray[np
 
 
 @nb.njit(cache=True)
-def _step_kernel(
-    x: NDArray[np.float64],
-    u: NDArray[np.float64],
-    theta: NDArray[np.float64],
-    cols: NDArray[np.int64],
-    neutral: NDArray[np.float64],
-    h: float,
-    n: int,
-    kind: int,
-) -> int:
+def _step_kernel(x, u, theta, cols, neutral, h, n, kind):  # type: ignore[no-untyped-def]  # pragma: no cover
     # advance every system in place; theta is the public batch (1 or B rows), expanded here
     bad = _bad_input_row(u)
     if bad >= 0:
@@ -661,19 +281,19 @@ def _step_kernel(
     for b in range(x.shape[0]):
         if b == 0 or theta.shape[0] > 1:
             _fill(p, theta[b], cols)
-        _advance(x[b], u[b, 0], u[b, 1], u[b, 2], u[b, 3], p, h, n, kind)
+        v = u[b, 1] * u[b, 0]
+        s = (x[b, 0], x[b, 1], x[b, 2], x[b, 3], x[b, 4], x[b, 5], x[b, 6])
+        s = dyn.advance(
+            s, v * v, dyn.supply(u[b, 2], p), u[b, 2], u[b, 3], h, n, ax.coefficients(p),
+            dyn.coefficients(p), ax.effect_coefficients(p), kind,
+        )  # fmt: skip
+        for j in range(_NX):
+            x[b, j] = s[j]
     return -1
 
 
 @nb.njit(cache=True)
-def _output_kernel(
-    x: NDArray[np.float64],
-    u: NDArray[np.float64],
-    theta: NDArray[np.float64],
-    cols: NDArray[np.int64],
-    neutral: NDArray[np.float64],
-    y: NDArray[np.float64],
-) -> int:
+def _output_kernel(x, u, theta, cols, neutral, y):  # type: ignore[no-untyped-def]  # pragma: no cover
     bad = _bad_input_row(u)
     if bad >= 0:
         return bad
@@ -681,123 +301,15 @@ def _output_kernel(
     for b in range(x.shape[0]):
         if b == 0 or theta.shape[0] > 1:
             _fill(p, theta[b], cols)
-        _outputs(x[b], u[b, 0], u[b, 1], u[b, 2], p, y[b])
+        v = u[b, 1] * u[b, 0]
+        s = (x[b, 0], x[b, 1], x[b, 2], x[b, 3], x[b, 4], x[b, 5], x[b, 6])
+        yb = dyn.outputs(
+            s, v * v, dyn.supply(u[b, 2], p), ax.coefficients(p), dyn.coefficients(p),
+            p[ax.I_RS],
+        )  # fmt: skip
+        for j in range(_NY):
+            y[b, j] = yb[j]
     return -1
-
-
-# ----------------------------------------------------------------------------- lockstep lanes
-# Batch-innermost pieces of _deriv for the environments' lockstep kernels (see the lane
-# functions of axt211): the right-hand side of one system ("lane"), branch-free so that a
-# loop over lanes vectorises; the actuator part is axt211's own lane right-hand side, the
-# rest is _deriv operation for operation, so a lane reproduces _advance bit for bit (for
-# actuator parameter sets without an active effect). The power laws (emission,
-# equal-percentage valve) use _vmath.vpow, which vectorises (libm's pow does not without
-# SVML) and is the same function in _deriv, so results stay identical.
-
-#: Rows of the room's lane table after the AXT211 rows (axt211._N_LANE of them).
-(
-    _LR_MCN, _LR_ICR, _LR_ICA, _LR_ICS, _LR_IREF, _LR_IXMAX, _LR_RV, _LR_RVH, _LR_QN, _LR_NR,
-    _LR_FINT, _LR_HAS, _LR_HAO, _LR_HSO,
-) = range(_N_LANE, _N_LANE + 14)  # fmt: skip
-_N_ROOM_LANE = _N_LANE + 14
-
-
-@nb.njit(cache=True)
-def _room_lane_column(p: NDArray[np.float64], out: NDArray[np.float64], b: int) -> None:
-    """Fill column ``b`` of a room lane table (_N_ROOM_LANE, B) from a full kernel vector.
-
-    The AXT211 rows (:func:`thermogym.models.axt211._lane_column`; the room's kernel vector
-    starts with the AXT211 one), then ṁ_nom c_w = Q_rad_nom/ΔT_w,nom, 1/C_rad, 1/C_a,
-    1/C_s, 1/ΔT_ref, 1/x_max, R_v, R_v^(h_0 − 1), Q_rad_nom, n_rad, f_int, H_as, H_ao, H_so.
-    """
-    _lane_column(p, out, b)
-    out[_LR_MCN, b] = p[_I_QN] / p[_I_DTW]
-    out[_LR_ICR, b] = 1.0 / p[_I_CR]
-    out[_LR_ICA, b] = 1.0 / p[_I_CA]
-    out[_LR_ICS, b] = 1.0 / p[_I_CS]
-    out[_LR_IREF, b] = _inv_ref(p)
-    out[_LR_IXMAX, b] = 1.0 / p[_I_XMAX]
-    out[_LR_RV, b] = p[_I_RV]
-    out[_LR_RVH, b] = p[_I_RV] ** (_H0 - 1.0)
-    out[_LR_QN, b] = p[_I_QN]
-    out[_LR_NR, b] = p[_I_NR]
-    out[_LR_FINT, b] = p[_I_FINT]
-    out[_LR_HAS, b] = p[_I_HAS]
-    out[_LR_HAO, b] = p[_I_HAO]
-    out[_LR_HSO, b] = p[_I_HSO]
-
-
-@nb.njit(cache=True, inline="always")
-def _room_lane_load(wb: NDArray[np.float64], o: int, W: int, i: int) -> tuple:  # type: ignore[type-arg]
-    # lane i's room parameters from a block array holding room lane rows o.. (row length W)
-    return (
-        wb[o * W + i], wb[(o + 1) * W + i], wb[(o + 2) * W + i], wb[(o + 3) * W + i],
-        wb[(o + 4) * W + i], wb[(o + 5) * W + i], wb[(o + 6) * W + i], wb[(o + 7) * W + i],
-        wb[(o + 8) * W + i], wb[(o + 9) * W + i], wb[(o + 10) * W + i],
-        wb[(o + 11) * W + i], wb[(o + 12) * W + i], wb[(o + 13) * W + i],
-    )  # fmt: skip
-
-
-@nb.njit(cache=True, inline="always")
-def _valve_lane(h: float, RvH: float, pwv: float, kind: int) -> float:
-    # _valve with selects: RvH = R_v^(h_0 − 1); pwv = R_v^(h − 1), evaluated by the caller
-    # (equal percentage only; kind is a compile-time constant of the calling kernel)
-    phi = h if kind == 0 else (h / _H0 * RvH if h < _H0 else pwv)
-    return 0.0 if h <= 0.0 else (1.0 if h >= 1.0 else phi)
-
-
-@nb.njit(cache=True, inline="always")
-def _stroke_lane(xP: float, xV0: float, qa: tuple, ixmax: float) -> float:  # type: ignore[type-arg]
-    # relative valve stroke h = x_V / x_max at a stage: (20) from the step-start stroke xV0
-    return _backlash_lane(xP, xV0, qa[18], qa[19]) * ixmax
-
-
-@nb.njit(cache=True, inline="always")
-def _emission_base(Tr: float, Ta: float, iref: float) -> float:
-    # |Δ| / ΔT_ref, the base of the emission's power law
-    return abs(Tr - Ta) * iref
-
-
-@nb.njit(cache=True, inline="always")
-def _emission_signed(Tr: float, Ta: float, QN: float, pw: float) -> float:
-    # _emission from pw = |Δ/ΔT_ref|^n_rad: Q_heat = Q_rad_nom sgn(Δ) pw (EN 442-2)
-    q = QN * pw
-    return q if Tr - Ta >= 0.0 else -q
-
-
-@nb.njit(cache=True, inline="always")
-def _deriv_lane(
-    TP: float,
-    TG: float,
-    xP: float,
-    Tr: float,
-    Ta: float,
-    Ts: float,
-    xV0: float,
-    v2: float,
-    Tsup: float,
-    Tout: float,
-    Qint: float,
-    Q: float,
-    pwv: float,
-    qa: tuple,  # type: ignore[type-arg]
-    qr: tuple,  # type: ignore[type-arg]
-    kind: int,
-) -> tuple[float, float, float, float, float, float, float]:
-    # _deriv for one lane, given the stage's emission Q (and pwv, see _valve_lane): the
-    # power laws are left to the caller, so that a kernel can evaluate them in a loop of
-    # their own; also returns R_PTC
-    mcn, icr, ica, ics, _, ixmax, _, RvH, _, _, f, Has, Hao, Hso = qr
-    dTP, dTG, dxP, R = _rhs_lane(TP, TG, xP, v2, Ta, qa)  # (17)-(19), T_U = T_zone
-    phi = _valve_lane(_stroke_lane(xP, xV0, qa, ixmax), RvH, pwv, kind)
-    # C_rad dT_rad/dt = ṁ c_w (T_sup − T_rad) − Q_heat,  ṁ c_w = φ Q_rad_nom / ΔT_w,nom
-    dTr = (phi * mcn * (Tsup - Tr) - Q) * icr
-    q_as = Has * (Ts - Ta)
-    # C_a dT_a/dt = Q_heat + f Q_int + H_as (T_s − T_a) + H_ao (T_out − T_a)
-    dTa = (Q + f * Qint + q_as + Hao * (Tout - Ta)) * ica
-    # C_s dT_s/dt = H_as (T_a − T_s) + H_so (T_out − T_s) + (1 − f) Q_int
-    dTs = (-q_as + Hso * (Tout - Ts) + (1.0 - f) * Qint) * ics
-    return dTP, dTG, dxP, dTr, dTa, dTs, R
 
 
 def valve_flow(
@@ -939,14 +451,14 @@ class RoomModel(Model):
         checks = [
             ("f_int", (col["f_int"] < 0) | (col["f_int"] > 1), "must lie in [0, 1]"),
             ("n_rad", col["n_rad"] < 1, "must be at least 1 (EN 442 exponents are 1.2-1.4)"),
-            ("T_out_d", col["T_out_d"] >= _T_DESIGN, "must be below 20 °C"),
+            ("T_out_d", col["T_out_d"] >= T_DESIGN, "must be below 20 °C"),
         ]
         tsd = theta[:, self.param_index("T_sup_d")]
         t20 = theta[:, self.param_index("T_sup_20")]
         dtw = theta[:, self.param_index("dT_w_nom")]
         checks.append(("T_sup_d", tsd < t20, "must not be below T_sup_20"))
         checks.append(
-            ("T_sup_d", tsd - dtw <= _T_DESIGN, "minus dT_w_nom (design return) must exceed 20 °C")
+            ("T_sup_d", tsd - dtw <= T_DESIGN, "minus dT_w_nom (design return) must exceed 20 °C")
         )
         if self._kind == 1:
             checks.append(("R_v", theta[:, self.param_index("R_v")] <= 1, "must exceed 1"))
@@ -1110,5 +622,5 @@ class RoomModel(Model):
 MODELS = {"room": RoomModel}
 
 
-# the kernels above inline compiled functions of these modules (cache validity)
-module_kernels_depend_on(globals(), _axt211_module, _vmath)
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

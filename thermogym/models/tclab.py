@@ -80,10 +80,21 @@ import numba as nb
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ParameterError, ShapeError
 from thermogym.models.base import Model, Parameter, Signal
+from thermogym.models.integrators import rk4_step
 
-__all__ = ["MODELS", "SIGMA", "TCLAB_PARAMETERS", "TCLAB_SIGNALS", "TCLabModel"]
+__all__ = [
+    "MODELS",
+    "SIGMA",
+    "TCLAB_PARAMETERS",
+    "TCLAB_SIGNALS",
+    "TCLabModel",
+    "advance",
+    "heater_power",
+    "rhs",
+]
 
 #: Stefan-Boltzmann constant [W/(m² K⁴)].
 SIGMA = 5.670374419e-8
@@ -143,10 +154,14 @@ _I_C, _I_U, _I_US, _I_A1, _I_A2, _I_TAU, _I_A, _I_AS, _I_EPS = range(9)
 
 
 @nb.njit(cache=True, inline="always")
-def _rhs(
-    TH1: float, TH2: float, TC1: float, TC2: float, q1: float, q2: float, Ta: float, p: Any
-) -> tuple[float, float, float, float]:
-    # energy balances of the two heaters and the sensor lags (module docstring)
+def rhs(x: tuple, args: tuple) -> tuple:  # type: ignore[type-arg]
+    """Energy balances of the two heaters and the sensor lags (module docstring).
+
+    ``x = (T_H1, T_H2, T_C1, T_C2)``, ``args = (Q1, Q2, T_a, p)`` with ``p`` the parameter
+    vector. Returns the derivatives and ``None``.
+    """
+    TH1, TH2, TC1, TC2 = x
+    q1, q2, Ta, p = args
     a1 = TH1 + _K
     a2 = TH2 + _K
     aa = Ta + _K
@@ -161,27 +176,31 @@ def _rhs(
     d1 = (ua * (Ta - TH1) + esa * (aa_4 - a1_4) + q12 + p[_I_A1] * q1) * ic
     d2 = (ua * (Ta - TH2) + esa * (aa_4 - a2_4) - q12 + p[_I_A2] * q2) * ic
     it = 1.0 / p[_I_TAU]
-    return d1, d2, (TH1 - TC1) * it, (TH2 - TC2) * it
+    return (d1, d2, (TH1 - TC1) * it, (TH2 - TC2) * it), None
+
+
+_rk4 = rk4_step(rhs)
 
 
 @nb.njit(cache=True)
-def _advance(
+def advance(
     x: NDArray[np.float64], q1: float, q2: float, Ta: float, p: Any, h: float, n: int
 ) -> None:
-    """Advance one system by ``n`` RK4 steps of ``h`` seconds with inputs held (in place)."""
-    a, b, c, d = x[0], x[1], x[2], x[3]
-    hh = 0.5 * h
-    w = h / 6.0
+    """Advance one system by ``n`` RK4 steps of ``h`` seconds with inputs held (in place).
+
+    ``x = [T_H1, T_H2, T_C1, T_C2]``, heater commands ``q1``, ``q2`` [%], ambient ``Ta``,
+    parameter vector ``p``.
+    """
+    s = (x[0], x[1], x[2], x[3])
     for _ in range(n):
-        k1 = _rhs(a, b, c, d, q1, q2, Ta, p)
-        k2 = _rhs(a + hh * k1[0], b + hh * k1[1], c + hh * k1[2], d + hh * k1[3], q1, q2, Ta, p)
-        k3 = _rhs(a + hh * k2[0], b + hh * k2[1], c + hh * k2[2], d + hh * k2[3], q1, q2, Ta, p)
-        k4 = _rhs(a + h * k3[0], b + h * k3[1], c + h * k3[2], d + h * k3[3], q1, q2, Ta, p)
-        a += w * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
-        b += w * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
-        c += w * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])
-        d += w * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3])
-    x[0], x[1], x[2], x[3] = a, b, c, d
+        s, _ = _rk4(s, h, (q1, q2, Ta, p))
+    x[0], x[1], x[2], x[3] = s
+
+
+@nb.njit(cache=True, inline="always")
+def heater_power(p: Any, q1: float, q2: float) -> float:
+    """Electrical power of both heaters [W] at commands ``q1``, ``q2`` [%]."""
+    return p[_I_A1] * q1 + p[_I_A2] * q2
 
 
 @nb.njit(cache=True, inline="always")
@@ -208,13 +227,13 @@ def _simulate_kernel(theta, u, x0, h, n, y, xs, keep):  # pragma: no cover - num
             if keep:
                 xs[b, k, :] = x
             if k + 1 < T:
-                _advance(x, ub[k, 0], ub[k, 1], ub[k, 2], p, h, n)
+                advance(x, ub[k, 0], ub[k, 1], ub[k, 2], p, h, n)
 
 
 @nb.njit(cache=True)
 def _step_kernel(x, u, theta, h, n):  # pragma: no cover - numba
     for b in range(x.shape[0]):
-        _advance(x[b], u[b, 0], u[b, 1], u[b, 2], theta[b if theta.shape[0] > 1 else 0], h, n)
+        advance(x[b], u[b, 0], u[b, 1], u[b, 2], theta[b if theta.shape[0] > 1 else 0], h, n)
 
 
 @nb.njit(cache=True)
@@ -301,7 +320,7 @@ class TCLabModel(Model):
             p = th[b]
 
             def f(T: NDArray[np.float64], p: NDArray[np.float64] = p) -> list[float]:
-                d1, d2, _, _ = _rhs(T[0], T[1], T[0], T[1], Q1, Q2, T_amb, p)
+                (d1, d2, _, _), _ = rhs((T[0], T[1], T[0], T[1]), (Q1, Q2, T_amb, p))
                 return [d1, d2]
 
             out[b] = fsolve(f, [T_amb + 30.0, T_amb + 20.0], xtol=1e-12)
@@ -347,3 +366,7 @@ class TCLabModel(Model):
 
 
 MODELS = {"tclab": TCLabModel}
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

@@ -38,10 +38,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError
 from thermogym.models._blas import blas_threads
 from thermogym.models._effects import EffectLayout, PhysicalEffect
 from thermogym.models.base import Model, Parameter, Signal, check_step_budget
+from thermogym.models.lti import lti_output, lti_update, transposed
 
 __all__ = [
     "NETWORK_EFFECTS",
@@ -191,28 +193,21 @@ def _discretise(
 
 
 @nb.njit(cache=True)
-def _lti_kernel(Ad, Bd, H, h0, x0, U, y, xs, keep):
+def _lti_kernel(At, Bt, Ht, h0, x0, U, y, xs, keep):  # pragma: no cover - numba
+    # transposed matrices (thermogym.models.lti); y = H x + h0 has no feedthrough
     Bn, T = U.shape[0], U.shape[1]
-    n, m, ny = Ad.shape[1], Bd.shape[2], H.shape[0]
+    n = At.shape[1]
     x = np.empty(n)
     xn = np.empty(n)
+    no_u = np.empty(0)
+    no_D = np.empty((0, Ht.shape[1]))
     for b in range(Bn):
         x[:] = x0[b]
         for k in range(T):
-            for i in range(ny):
-                s = h0[b, i]
-                for j in range(n):
-                    s += H[i, j] * x[j]
-                y[b, k, i] = s
+            lti_output(Ht, no_D, h0[b], x, no_u, y[b, k])
             if keep:
                 xs[b, k, :] = x
-            for i in range(n):
-                s = 0.0
-                for j in range(n):
-                    s += Ad[b, i, j] * x[j]
-                for j in range(m):
-                    s += Bd[b, i, j] * U[b, k, j]
-                xn[i] = s
+            lti_update(At[b], Bt[b], x, U[b, k], xn)
             x[:] = xn
 
 
@@ -246,9 +241,9 @@ def lti_simulate(
     y = np.empty((B, T, H.shape[0]))
     xs = np.empty((B, T, Ad.shape[1])) if return_states else np.empty((1, 1, Ad.shape[1]))
     _lti_kernel(
-        np.ascontiguousarray(Ad),
-        np.ascontiguousarray(Bd),
-        np.ascontiguousarray(H),
+        transposed(Ad),
+        transposed(Bd),
+        transposed(H),
         np.ascontiguousarray(h0),
         np.ascontiguousarray(x0),
         np.ascontiguousarray(U),
@@ -409,7 +404,8 @@ class ThermalNetworkModel(Model):
         self._layout = EffectLayout(base_parameters, NETWORK_EFFECTS, effects, self.name)
         self._n_base = len(base_parameters)
         super().__init__(signals, self._layout.public, self.nodes)
-        self._forced_mask = np.array([n in self.forced_nodes() for n in self.nodes])
+        #: 1 for the nodes of :meth:`forced_nodes` (input-dependent heat transfer), per node.
+        self.forced_mask = np.array([n in self.forced_nodes() for n in self.nodes])
         self._disc_cache: dict[Any, Any] = {}
 
     @property
@@ -433,12 +429,83 @@ class ThermalNetworkModel(Model):
         """Physical arrays for a public parameter batch."""
         return self.network(self._layout.full_theta(self.theta(theta)))
 
-    def _effect_values(self, full: NDArray[np.float64]) -> NDArray[np.float64]:
+    def full_theta(self, theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Kernel parameter vectors (B, P_full): base, then every effect (absent ones neutral)."""
+        return self._layout.full_theta(theta)
+
+    def effect_values(self, full: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Effect values (alpha, beta, gamma, drift) per set of full vectors, shape (B, 4)."""
         return np.ascontiguousarray(full[:, self._n_base : self._n_base + _NE])
 
-    def _is_linear(self, full: NDArray[np.float64]) -> bool:
-        e = self._effect_values(full)
+    def is_linear(self, full: NDArray[np.float64]) -> bool:
+        """Whether every set of full vectors ``full`` has its effects switched off."""
+        e = self.effect_values(full)
         return bool(np.all(e[:, 0] == 1.0) and np.all(e[:, 1:] == 0.0))
+
+    def integrate(
+        self,
+        net: NetworkArrays,
+        eff: NDArray[np.float64],
+        x0: NDArray[np.float64],
+        u: NDArray[np.float64],
+        dt: float,
+        nsub: int,
+        *,
+        q_ext: NDArray[np.float64] | None = None,
+        t0: float = 0.0,
+        return_states: bool = False,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """RK4 integration of the (nonlinear) network ``net`` with effect values ``eff``.
+
+        Parameters
+        ----------
+        net : NetworkArrays
+            Physical arrays of B sets (:meth:`network`).
+        eff : ndarray, shape (B, 4)
+            :meth:`effect_values`.
+        x0 : ndarray, shape (B, n)
+        u : ndarray, shape (B, T, n_u + 1)
+        dt : float
+            Sample period [s].
+        nsub : int
+            RK4 sub-steps per sample.
+        q_ext : ndarray, shape (B or 1, T, n), optional
+            Extra heat into each node [W].
+        t0 : float
+            Time of the first sample [s].
+        return_states : bool
+
+        Returns
+        -------
+        y : ndarray, shape (B, T, n_y)
+        xs : ndarray, shape (B, T, n), or None
+        """
+        B, T = u.shape[0], u.shape[1]
+        y = np.empty((B, T, net.H.shape[0]))
+        xs = np.empty((B, T, len(self.nodes))) if return_states else np.empty((1, 1, 1))
+        qx = np.zeros((1, 1, 1)) if q_ext is None else np.ascontiguousarray(q_ext, dtype=float)
+        _rk4_kernel(
+            np.ascontiguousarray(net.C),
+            np.ascontiguousarray(net.G),
+            np.ascontiguousarray(net.g_amb),
+            np.ascontiguousarray(net.q),
+            np.ascontiguousarray(eff, dtype=float),
+            float(self.u_ref),
+            float(self.dT_ref),
+            self.forced_mask,
+            np.ascontiguousarray(net.H),
+            np.ascontiguousarray(net.h0),
+            np.ascontiguousarray(x0),
+            np.ascontiguousarray(u),
+            qx,
+            float(t0),
+            float(dt),
+            int(nsub),
+            y,
+            xs,
+            return_states,
+        )
+        return y, (xs if return_states else None)
 
     def steady_state(
         self, theta: NDArray[np.float64], u: NDArray[np.float64]
@@ -512,7 +579,7 @@ class ThermalNetworkModel(Model):
         """
         full = self._layout.full_theta(theta)
         net = self.network(full)
-        if self._is_linear(full) and q_ext is None and not force_rk4:
+        if self.is_linear(full) and q_ext is None and not force_rk4:
             Ad, Bd, net = self.discrete(theta, dt)
             return lti_simulate(Ad, Bd, net.H, net.h0, x0, u, return_states)
         if substeps is None:
@@ -521,33 +588,11 @@ class ThermalNetworkModel(Model):
             nsub = int(substeps)
         else:
             raise ConfigError(f"substeps is {substeps!r}; expected an integer of at least 1")
-        B, T = u.shape[0], u.shape[1]
-        check_step_budget(self.name, nsub, T, dt)
-        y = np.empty((B, T, net.H.shape[0]))
-        xs = np.empty((B, T, len(self.nodes))) if return_states else np.empty((1, 1, 1))
-        qx = np.zeros((1, 1, 1)) if q_ext is None else np.ascontiguousarray(q_ext, dtype=float)
-        _rk4_kernel(
-            np.ascontiguousarray(net.C),
-            np.ascontiguousarray(net.G),
-            np.ascontiguousarray(net.g_amb),
-            np.ascontiguousarray(net.q),
-            self._effect_values(full),
-            float(self.u_ref),
-            float(self.dT_ref),
-            self._forced_mask,
-            np.ascontiguousarray(net.H),
-            np.ascontiguousarray(net.h0),
-            np.ascontiguousarray(x0),
-            np.ascontiguousarray(u),
-            qx,
-            float(t0),
-            float(dt),
-            int(nsub),
-            y,
-            xs,
-            return_states,
-        )
-        return y, (xs if return_states else None)
+        check_step_budget(self.name, nsub, u.shape[1], dt)
+        return self.integrate(
+            net, self.effect_values(full), x0, u, dt, nsub, q_ext=q_ext, t0=t0,
+            return_states=return_states,
+        )  # fmt: skip
 
     def _simulate(self, theta, u, dt, x0, return_states):
         return self.simulate_network(theta, u, dt, x0, return_states=return_states)
@@ -569,7 +614,7 @@ class ThermalNetworkModel(Model):
 
     def _step(self, x, u, theta, dt):
         full = self._layout.full_theta(theta)
-        if self._is_linear(full):
+        if self.is_linear(full):
             Ad, Bd, _ = self.discrete(theta, dt)
             return np.einsum("bij,bj->bi", Ad, x) + np.einsum("bij,bj->bi", Bd, u)
         _, xs = self.simulate_network(
@@ -580,3 +625,7 @@ class ThermalNetworkModel(Model):
     def _output(self, x, u, theta):
         net = self.network(self._layout.full_theta(theta))
         return np.einsum("ij,bj->bi", net.H, x) + net.h0
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())

@@ -46,9 +46,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ShapeError
 from thermogym.identification.simmodel import ThermogymModel
+from thermogym.models import axt211_dynamics as ax
 from thermogym.models.axt211 import AXT211, AXT211_PARAMETERS
+from thermogym.models.integrators import rk4_accumulate, rk4_finish, rk4_stage_input
 from thermogym.models.thermal_network import ThermalNetworkModel, lti_simulate, network_matrices
 from thermogym.recording import Recording
 
@@ -233,87 +236,11 @@ def network_sensitivities(
 
 
 # ----------------------------------------------------------------------- AXT211
-_IX = {p.name: i for i, p in enumerate(AXT211_PARAMETERS)}
 _NP = len(AXT211_PARAMETERS)
-_CP, _LPG, _CG, _LGU = _IX["C_P"], _IX["lambda_PG"], _IX["C_G"], _IX["lambda_GU"]
-_T0, _KA, _KB, _KC = _IX["T_P0"], _IX["kP_a"], _IX["kP_b"], _IX["kP_c"]
-_TAU, _XMAX, _C = _IX["tau_P"], _IX["x_max"], _IX["c_backlash"]
-_T_LO, _T_HI = 30.0, 101.0  # validated range of the PTC polynomial (14)
-
-
-@nb.njit(cache=True)
-def _ptc(TP, p, dR):  # pragma: no cover - numba
-    """R(T_P) of (14) with its derivative wrt T_P; dR[i] = ∂R/∂R_i."""
-    Tc = min(max(TP, _T_LO), _T_HI)
-    tau = (Tc - 65.0) / 35.0
-    R = 0.0
-    dRdtau = 0.0
-    pw = 1.0
-    for i in range(6):
-        R += p[i] * pw
-        dR[i] = pw
-        if i < 5:
-            dRdtau += (i + 1) * p[i + 1] * pw
-        pw *= tau
-    if TP > _T_HI:
-        slope = dRdtau / 35.0
-        ext = TP - _T_HI
-        R += slope * ext
-        pw = 1.0
-        for i in range(1, 6):
-            dR[i] += ext * i * pw / 35.0
-            pw *= tau
-        return R, slope
-    if TP < _T_LO:
-        return R, 0.0
-    return R, dRdtau / 35.0
-
-
-@nb.njit(cache=True)
-def _rhs_sens(x, S, v2, TU, p, lo, hi, f, K, dR, pos):  # pragma: no cover - numba
-    """f(x) of (17)-(19) and K = f_x S + f_θ (rows T_P, T_G, x_P).
-
-    Column ``pos[i]`` of S and K is the derivative wrt parameter ``i`` (−1: not tracked).
-    """
-    TP, TG, xP = x[0], x[1], x[2]
-    R, dRdT = _ptc(TP, p, dR)
-    Pw = v2 / R  # (15)
-    dPdT = -Pw / R * dRdT
-    CP, lPG, CG, lGU = p[_CP], p[_LPG], p[_CG], p[_LGU]
-    q = lPG * (TP - TG)
-    f0 = (Pw - q) / CP  # (17)
-    f1 = (q - lGU * (TG - TU)) / CG  # (18)
-    xpos = max(xP, 0.0)
-    kk = (p[_KA] * xpos + p[_KB]) * xpos + p[_KC]  # (21)
-    d0 = TP - p[_T0]
-    tau = p[_TAU]
-    f2 = (kk * d0 - xP) / tau  # (19)
-    stopped = (xP >= hi and f2 > 0.0) or (xP <= lo and f2 < 0.0)
-    if stopped:
-        f2 = 0.0
-    f[0], f[1], f[2] = f0, f1, f2
-    a_T, a_G = (dPdT - lPG) / CP, lPG / CP
-    b_T, b_G = lPG / CG, -(lPG + lGU) / CG
-    dk = (2.0 * p[_KA] * xpos + p[_KB]) if xP > 0.0 else 0.0
-    c_x, c_T = (dk * d0 - 1.0) / tau, kk / tau
-    for j in range(K.shape[1]):
-        K[0, j] = a_T * S[0, j] + a_G * S[1, j]
-        K[1, j] = b_T * S[0, j] + b_G * S[1, j]
-        K[2, j] = 0.0 if stopped else c_x * S[2, j] + c_T * S[0, j]
-    for i in range(6):
-        if pos[i] >= 0:
-            K[0, pos[i]] += -Pw / R * dR[i] / CP
-    _add(K, 0, pos[_CP], -f0 / CP)
-    _add(K, 0, pos[_LPG], -(TP - TG) / CP)
-    _add(K, 1, pos[_LPG], (TP - TG) / CG)
-    _add(K, 1, pos[_LGU], -(TG - TU) / CG)
-    _add(K, 1, pos[_CG], -f1 / CG)
-    if not stopped:
-        _add(K, 2, pos[_T0], -kk / tau)
-        _add(K, 2, pos[_KA], xpos * xpos * d0 / tau)
-        _add(K, 2, pos[_KB], xpos * d0 / tau)
-        _add(K, 2, pos[_KC], d0 / tau)
-        _add(K, 2, pos[_TAU], -f2 / tau)
+_C, _XMAX = ax.I_C, ax.I_XMAX
+#: rows and parameters of the right-hand side's parameter derivatives (ax.rhs_partials)
+_PART_ROW = np.array([r for r, _ in ax.PARTIALS], dtype=np.int64)
+_PART_PAR = np.array([j for _, j in ax.PARTIALS], dtype=np.int64)
 
 
 @nb.njit(cache=True, inline="always")
@@ -323,85 +250,109 @@ def _add(K, row, j, v):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True)
-def _axt211_sens_kernel(p, u, x0, S0, pos, h, nsub, y, dy):  # pragma: no cover - numba
+def _rhs_sens(x, S, v2, TU, q, K, pos, prow, ppar):  # pragma: no cover - numba
+    """f(x) of (14)-(21) and K = f_x S + f_θ (rows T_P, T_G, x_P), from ax.rhs_partials.
+
+    Column ``pos[i]`` of S and K is the derivative wrt parameter ``i`` (−1: not tracked).
+    """
+    f, _R, _stopped, J, d = ax.rhs_partials(x, v2, TU, q)
+    for j in range(K.shape[1]):
+        K[0, j] = J[0] * S[0, j] + J[1] * S[1, j]
+        K[1, j] = J[2] * S[0, j] + J[3] * S[1, j]
+        K[2, j] = J[4] * S[2, j] + J[5] * S[0, j]
+    for m in range(prow.shape[0]):
+        _add(K, prow[m], pos[ppar[m]], d[m])
+    return f
+
+
+@nb.njit(cache=True)
+def _axt211_sens_kernel(p, u, x0, S0, pos, h, nsub, y, dy, prow, ppar):  # pragma: no cover
     T = u.shape[0]
     NP = S0.shape[1]
-    x = x0.copy()
+    q = ax.coefficients(p)
+    x = (x0[0], x0[1], x0[2])
+    xV = x0[3]
     S = S0.copy()
-    xs = np.empty(4)
-    Ss = np.empty((4, NP))
-    f = np.empty((4, 3))
-    K = np.empty((4, 3, NP))
-    dR = np.empty(6)
+    Ss = np.empty((3, NP))
+    K = np.empty((3, NP))
+    KS = np.empty((3, NP))  # the weighted stage sum of the K
     c, xmax = p[_C], p[_XMAX]
     lo, hi = -c, xmax + c
     for k in range(T):
         uk, kU, TU = u[k, 0], u[k, 1], u[k, 2]
-        v2 = (kU * uk) * (kU * uk)
-        # outputs y = [P, R, T_P, T_G, x_P, x_V]
-        R, dRdT = _ptc(x[0], p, dR)
-        Pw = v2 / R
-        y[k, 0], y[k, 1], y[k, 2], y[k, 3], y[k, 4], y[k, 5] = Pw, R, x[0], x[1], x[2], x[3]
+        v = kU * uk
+        v2 = v * v
+        # outputs y = [P, R, T_P, T_G, x_P, x_V] as the model's (ax.outputs)
+        yk = ax.outputs((x[0], x[1], x[2], xV), v2, q, 0.0)
+        for j in range(6):
+            y[k, j] = yk[j]
+        R = yk[1]
+        dRdT, dRi = ax.resistance_partials(x[0], q)
+        dPdR = -v2 / (R * R)
         for j in range(NP):
-            dy[k, 0, j] = -Pw / R * dRdT * S[0, j]
+            dy[k, 0, j] = dPdR * dRdT * S[0, j]
             dy[k, 1, j] = dRdT * S[0, j]
             dy[k, 2, j] = S[0, j]
             dy[k, 3, j] = S[1, j]
             dy[k, 4, j] = S[2, j]
             dy[k, 5, j] = S[3, j]
         for i in range(6):
-            if pos[i] >= 0:
-                dy[k, 0, pos[i]] += -Pw / R * dR[i]
-                dy[k, 1, pos[i]] += dR[i]
+            if pos[ax.I_R0 + i] >= 0:
+                dy[k, 0, pos[ax.I_R0 + i]] += dPdR * dRi[i]
+                dy[k, 1, pos[ax.I_R0 + i]] += dRi[i]
         if k + 1 == T:
             break
         for _ in range(nsub):
-            # classical RK4 on (x, S): stage s at x + a_s h k_{s-1}, S + a_s h K_{s-1}
-            for s in range(4):
-                a = 0.0 if s == 0 else (0.5 * h if s < 3 else h)
+            # the model's RK4 (shared stage functions) on x, the same stages on S
+            f = x
+            fs = x
+            for st in range(1, 5):
+                a = 0.0 if st == 1 else (h if st == 4 else 0.5 * h)
+                xs = rk4_stage_input(x, f, h, st)
                 for i in range(3):
-                    xs[i] = x[i] + (a * f[s - 1, i] if s > 0 else 0.0)
                     for j in range(NP):
-                        Ss[i, j] = S[i, j] + (a * K[s - 1, i, j] if s > 0 else 0.0)
-                _rhs_sens(xs, Ss, v2, TU, p, lo, hi, f[s], K[s], dR, pos)
+                        Ss[i, j] = S[i, j] + a * K[i, j]
+                f = _rhs_sens(xs, Ss, v2, TU, q, K, pos, prow, ppar)
+                fs = rk4_accumulate(fs, f, st)
+                w = 1.0 if (st == 1 or st == 4) else 2.0
+                for i in range(3):
+                    for j in range(NP):
+                        KS[i, j] = K[i, j] if st == 1 else KS[i, j] + w * K[i, j]
+            x = rk4_finish(x, h, fs)
             for i in range(3):
-                x[i] += h / 6.0 * (f[0, i] + 2.0 * f[1, i] + 2.0 * f[2, i] + f[3, i])
                 for j in range(NP):
-                    S[i, j] += (
-                        h / 6.0 * (K[0, i, j] + 2.0 * K[1, i, j] + 2.0 * K[2, i, j] + K[3, i, j])
-                    )
-            # x_P stays in [−c, x_max + c]; a clamped x_P follows the bound
+                    S[i, j] += h / 6.0 * KS[i, j]
+            xP, xVn = ax.constrain(x[2], xV, q)
+            # a clamped x_P follows the bound
             if x[2] < lo:
-                x[2] = lo
                 for j in range(NP):
                     S[2, j] = 0.0
                 _add(S, 2, pos[_C], -1.0)
             elif x[2] > hi:
-                x[2] = hi
                 for j in range(NP):
                     S[2, j] = 0.0
                 _add(S, 2, pos[_XMAX], 1.0)
                 _add(S, 2, pos[_C], 1.0)
+            x = (x[0], x[1], xP)
             # backlash (20): x_V = clip(x_V, x_P − c, x_P + c), then within [0, x_max]
-            if x[3] < x[2] - c:
-                x[3] = x[2] - c
-                for j in range(NP):
-                    S[3, j] = S[2, j]
-                _add(S, 3, pos[_C], -1.0)
-            elif x[3] > x[2] + c:
-                x[3] = x[2] + c
+            if xP < xV - c:
                 for j in range(NP):
                     S[3, j] = S[2, j]
                 _add(S, 3, pos[_C], 1.0)
-            if x[3] < 0.0:
-                x[3] = 0.0
+                xV = xP + c
+            elif xP > xV + c:
+                for j in range(NP):
+                    S[3, j] = S[2, j]
+                _add(S, 3, pos[_C], -1.0)
+                xV = xP - c
+            if xV < 0.0:
                 for j in range(NP):
                     S[3, j] = 0.0
-            elif x[3] > xmax:
-                x[3] = xmax
+            elif xV > xmax:
                 for j in range(NP):
                     S[3, j] = 0.0
                 _add(S, 3, pos[_XMAX], 1.0)
+            xV = xVn
 
 
 def axt211_sensitivities(
@@ -455,5 +406,11 @@ def axt211_sensitivities(
         n,
         y,
         dy,
+        _PART_ROW,
+        _PART_PAR,
     )
     return y, dy
+
+
+# the kernels above inline compiled functions of other modules (derived cache dependencies)
+module_kernels_depend_on(globals())
