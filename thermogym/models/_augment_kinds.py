@@ -207,7 +207,7 @@ class _Aug:
             return None
         if name not in self.exo:
             raise ConfigError(
-                f"augmentation {self.effect!r}: {key} {name!r} is not an exogenous signal; "
+                f"augmentation {self.effect!r}: {key!r} {name!r} is not an exogenous signal; "
                 f"they are {self.exo}"
             )
         return self.exo.index(str(name))
@@ -694,7 +694,8 @@ class _NonlinearLoss(_Loop):
         if self.form == "radiation":
             Tk, rk = T + self.kelvin, r + self.kelvin
             # (T⁴ − r⁴)/(4 T_ref³) − (T − r): the radiative exchange's excess over linear
-            return (Tk**4 - rk**4) / (4.0 * self.T_ref**3) - d
+            with np.errstate(over="ignore", invalid="ignore"):
+                return (Tk**4 - rk**4) / (4.0 * self.T_ref**3) - d
         return np.sign(d) * np.abs(d) ** self.n / self.dT_ref ** (self.n - 1.0) - d
 
     def term(self, y, u, p, s0, dt):

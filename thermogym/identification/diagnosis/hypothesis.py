@@ -153,10 +153,8 @@ class Hypothesis:
         parameters and initial state estimated on the held-out recording).
     local_train, local_val : list of dict
         Per-recording parameter values.
-    n_eff_train, n_eff_val : float
-        Effectively independent residual samples (:mod:`.scoring`).
-    z_val : float
-        Held-out squared-error reduction over its standard error, against the parent.
+    chi2_train, chi2_val : float
+        Whitened likelihood-ratio statistic against the parent (:mod:`.scoring`).
     wsse_train, wsse_val : float
         Weighted squared simulation error.
     n_val : int
@@ -189,9 +187,8 @@ class Hypothesis:
     sims_val: list[NDArray[np.float64]] = field(default_factory=list, repr=False)
     local_train: list[dict[str, float]] = field(default_factory=list, repr=False)
     local_val: list[dict[str, float]] = field(default_factory=list, repr=False)
-    n_eff_train: float = math.nan
-    n_eff_val: float = math.nan
-    z_val: float = math.nan
+    chi2_train: float = math.nan
+    chi2_val: float = math.nan
     wsse_train: float = math.nan
     wsse_val: float = math.nan
     n_val: int = 0
@@ -266,7 +263,7 @@ class Hypothesis:
             "validation_after": self.validation_after,
             "delta_ic": self.delta_ic,
             "delta_ic_train": self.delta_ic_train,
-            "z_heldout": self.z_val,
+            "chi2_heldout": self.chi2_val,
             "score": self.score,
             "explained": self.explained,
             "screened": self.screened,

@@ -132,6 +132,7 @@ class DiagnosisReport:
     baseline: dict[str, Any] = field(default_factory=dict)
     nominal_adequate: bool = True
     stages: dict[str, float] = field(default_factory=dict)
+    selection: list[dict[str, Any]] = field(default_factory=list)
     # arrays kept for figures (not in the JSON)
     series: list[dict[str, Any]] = field(default_factory=list, repr=False)
     regime_values: list[Any] = field(default_factory=list, repr=False)
@@ -210,6 +211,7 @@ class DiagnosisReport:
             "nominal_adequate": self.nominal_adequate,
             "baseline": self.baseline,
             "parameters": self.parameters,
+            "selection": self.selection,
             "mismatch_detected": self.mismatch_detected,
             "located": located,
             "hypotheses": hyps,

@@ -56,7 +56,7 @@ from thermogym.identification.diagnosis.nominal import (
 )
 from thermogym.identification.diagnosis.report import DiagnosisReport
 from thermogym.identification.diagnosis.residuals import noise_sigma, residual_tests
-from thermogym.identification.diagnosis.scoring import delta_ic, improvement_z, z_threshold
+from thermogym.identification.diagnosis.scoring import delta_ic, whitened_chi2
 from thermogym.identification.diagnosis.select import (
     Data,
     Selection,
@@ -549,9 +549,9 @@ def _stage_parameters(st: _Run) -> None:
     score_self(g, st.data)
     st.given_h = g
     # the calibrated model against the given one: k re-calibrated parameters
-    d = delta_ic(h.wsse_val, g.wsse_val, len(st.calibrated), g.n_eff_val)
-    z = improvement_z(residuals_of(g, st.data)[1], residuals_of(h, st.data)[1], st.weights)
-    better = bool(d < 0 and z > z_threshold(st.opts["alpha"], 1) and h.wsse_val < g.wsse_val)
+    chi2, n = whitened_chi2(residuals_of(g, st.data)[1], residuals_of(h, st.data)[1])
+    d = delta_ic(chi2, len(st.calibrated), n)
+    better = bool(d < 0 and h.wsse_val < g.wsse_val)
     iv = intervals(h, st.calibrated, st.tr, st.weights, st.x0,
                    experiment={p: CATALOGUE["parameter_error"].experiment(p) for p in st.calibrated})
     moved = {}
@@ -569,7 +569,7 @@ def _stage_parameters(st: _Run) -> None:
     st.parameters = {
         "tested": True,
         "delta_ic": d,
-        "z_heldout": z,
+        "chi2_heldout": chi2,
         "significant": better,
         "parameters": moved,
         "moved": [p for p, r in moved.items() if r["moved"]],
@@ -669,7 +669,7 @@ def _sparse(st: _Run, sel: Selection) -> None:
     for c in cands:
         h = fit_hypothesis(st.spec, st.nominal, c, st.data, st.nominal)
         sel.first_round.append(h)
-        if passes(h, st.nominal, len(cands), st.opts["alpha"]) and (
+        if passes(h, st.nominal, len(cands)) and (
             best is None or h.delta_ic < best.delta_ic
         ):
             best = h
@@ -791,6 +791,7 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     report.nominal_adequate = bool(st.arx.get("nominal_adequate", True))
     report.scheme = st.data.scheme if st.data else ""
     report.stages = {k: round(v, 3) for k, v in st.seconds.items()}
+    report.selection = sel.summary()
     report.series = [
         {"name": e.name, "role": r, "time": e.time, "measured": e.y, "nominal": s, "u": e.u}
         for e, r, s in zip([*st.tr, *st.va], ["train"] * len(st.tr) + ["validation"] * len(st.va),

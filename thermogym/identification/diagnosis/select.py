@@ -15,7 +15,9 @@ free (a few iterations: a Jacobian of ``k + 1`` simulations instead of
 (:mod:`.scoring`). The best are refitted jointly and scored on held-out data.
 
 **Forward selection.** The hypothesis with the lowest held-out ΔIC is kept
-when ΔIC < 0 and its held-out squared error is lower than the parent's; the
+when it passes (:func:`passes`); a hypothesis that predicts the held-out
+recordings outright is preferred to one whose course (an unmeasured
+disturbance, a supply's wander) had to be re-estimated on them; the
 remaining candidates are then screened again on top of it (joint refits of
 the whole combination), until none passes or :data:`MAX_EFFECTS` effects are
 in. Each effect's share of the explained error is its step's reduction of the
@@ -52,12 +54,7 @@ from thermogym.identification.diagnosis.hypothesis import (
     NominalSpec,
     merge_values,
 )
-from thermogym.identification.diagnosis.scoring import (
-    delta_ic,
-    effective_n,
-    improvement_z,
-    z_threshold,
-)
+from thermogym.identification.diagnosis.scoring import delta_ic, whitened_chi2
 from thermogym.identification.metrics import nrmse
 from thermogym.models.base import Model
 
@@ -65,6 +62,12 @@ __all__ = ["MAX_EFFECTS", "Data", "fit_hypothesis", "forward_selection", "nrmse_
 
 #: Most effects a combination holds.
 MAX_EFFECTS = 3
+#: Paths the first round keeps (beam search).
+BEAM = 2
+#: Least share of the nominal model's systematic held-out error a kept effect removes.
+MIN_SHARE = 0.05
+#: Evaluations of a screening fit (joint, from the neutral values and the starts).
+_SCREEN_NFEV = 8
 #: Hypotheses refitted jointly after screening: in the first round, in later rounds.
 N_FULL_FIRST = 8
 N_FULL_NEXT = 5
@@ -231,9 +234,9 @@ def fit_hypothesis(
         for k, v in (start or {}).items():
             if k in model.param_names:
                 base[model.param_index(k)] = v
-        free_g = new_g if screen else [*parent_g, *new_g]
+        free_g = [*parent_g, *new_g]
         free = [*free_g, *local]
-        nfev = max_nfev or (8 if screen else data.max_nfev)
+        nfev = max_nfev or (_SCREEN_NFEV if screen else data.max_nfev)
         starts = []
         if cand is not None and start is None:
             for st in cand.starts:
@@ -304,27 +307,23 @@ def residuals_of(h: Hypothesis, data: Data) -> tuple[list[NDArray], list[NDArray
 
 
 def score_self(h: Hypothesis, data: Data) -> None:
-    """A hypothesis' own errors and effective sample sizes (as a parent of others)."""
-    res_tr, res_va = residuals_of(h, data)
+    """A hypothesis' own squared errors (as a parent of others)."""
+    _, res_va = residuals_of(h, data)
     h.wsse_train = wsse([e.y for e in data.train], h.sims_train, data.weights)
     h.wsse_val = wsse([e.y for e in data.val], h.sims_val, data.weights)
-    h.n_eff_train = effective_n(res_tr, data.weights)
-    h.n_eff_val = effective_n(res_va, data.weights)
     h.n_val = sum(int(np.isfinite(r).sum()) for r in res_va)
 
 
 def _score(h: Hypothesis, parent: Hypothesis, nominal: Hypothesis, data: Data, outs) -> None:
     score_self(h, data)
-    _, res_va = residuals_of(h, data)
-    _, par_va = residuals_of(parent, data)
+    res_tr, res_va = residuals_of(h, data)
+    par_tr, par_va = residuals_of(parent, data)
     dk_g = h.k_global - parent.k_global
     dk_l = h.k_local - parent.k_local
-    h.delta_ic = delta_ic(h.wsse_val, parent.wsse_val, dk_g + len(data.val) * dk_l,
-                          parent.n_eff_val)
-    h.delta_ic_train = delta_ic(
-        h.wsse_train, parent.wsse_train, dk_g + len(data.train) * dk_l, parent.n_eff_train
-    )
-    h.z_val = improvement_z(par_va, res_va, data.weights)
+    h.chi2_val, n_va = whitened_chi2(par_va, res_va)
+    h.chi2_train, n_tr = whitened_chi2(par_tr, res_tr)
+    h.delta_ic = delta_ic(h.chi2_val, dk_g + len(data.val) * dk_l, n_va)
+    h.delta_ic_train = delta_ic(h.chi2_train, dk_g + len(data.train) * dk_l, n_tr)
     h.score = -h.delta_ic if math.isfinite(h.delta_ic) else -math.inf
     s0 = nominal.wsse_val
     floor = nominal.baseline.get("noise_floor", 0.0) if nominal.baseline else 0.0
@@ -336,19 +335,20 @@ def _score(h: Hypothesis, parent: Hypothesis, nominal: Hypothesis, data: Data, o
     h.validation_after = nrmse_table(outs, [e.y for e in data.val], h.sims_val)
 
 
-def passes(h: Hypothesis, parent: Hypothesis, m: int, alpha: float) -> bool:
-    """Kept: held-out improvement beyond the noise and a lower information criterion.
+def passes(h: Hypothesis, parent: Hypothesis, m: int) -> bool:
+    """Kept: held-out improvement beyond the coloured noise, by the information criterion.
 
-    ``z`` above the one-sided quantile at ``α / m``, ``ΔIC + 2 ln m < 0`` on
-    the held-out data (``m`` candidates in the round), and a lower held-out
-    squared error than the parent's.
+    ``ΔIC + 2 ln m < 0`` on the held-out data (``m`` candidates in the round:
+    the extended BIC's prior over them), and material: the held-out squared
+    error falls by at least :data:`MIN_SHARE` of the nominal model's
+    systematic held-out error (what an effect of the wrong form leaves behind
+    is significant at thousands of samples, but not material).
     """
     return bool(
         h.ok
-        and math.isfinite(h.z_val)
-        and h.z_val > z_threshold(alpha, m)
         and h.delta_ic + 2.0 * math.log(max(m, 1)) < 0.0
         and h.wsse_val < parent.wsse_val
+        and h.explained - parent.explained >= MIN_SHARE
     )
 
 
@@ -370,6 +370,28 @@ class Selection:
     steps: list[Hypothesis] = field(default_factory=list)
     first_round: list[Hypothesis] = field(default_factory=list)
     rounds: list[list[Hypothesis]] = field(default_factory=list)
+    passed: list[list[bool]] = field(default_factory=list)
+
+    def summary(self) -> list[dict[str, Any]]:
+        """Per round, the jointly refitted hypotheses: ΔIC, share explained, kept or not."""
+        return [
+            {
+                "round": r + 1,
+                "hypotheses": [
+                    {
+                        "effect": h.last.effect if h.last else "none",
+                        "form": h.last.form if h.last else "",
+                        "target": h.last.target if h.last else "",
+                        "delta_ic": h.delta_ic,
+                        "explained": h.explained,
+                        "passes": ok,
+                        "error": h.error,
+                    }
+                    for h, ok in zip(hs, oks, strict=True)
+                ],
+            }
+            for r, (hs, oks) in enumerate(zip(self.rounds, self.passed, strict=True))
+        ]
 
     @property
     def final(self) -> Hypothesis | None:
@@ -381,6 +403,70 @@ def _key(h: Hypothesis) -> float:
     return h.delta_ic if h.ok and math.isfinite(h.delta_ic) else math.inf
 
 
+def _round(
+    spec: NominalSpec,
+    current: Hypothesis,
+    pool: Sequence[Candidate],
+    data: Data,
+    nominal: Hypothesis,
+    n_full: int,
+) -> tuple[list[Hypothesis], list[bool], list[Hypothesis]]:
+    """One round on top of ``current``: screen, refit the best jointly, test them.
+
+    Returns the refitted hypotheses (passing ones first, predictive before
+    re-estimated courses), whether each passes, and the screened rest.
+    """
+    screened = []
+    for c in pool:
+        if data.expired:
+            data.say(f"time limit: {c.label} not screened")
+            break
+        screened.append(fit_hypothesis(spec, current, c, data, nominal, screen=True))
+    ok = sorted((h for h in screened if not h.error), key=lambda h: h.delta_ic_train)
+    # the best by the training criterion, and by the held-out one (a screened fit that
+    # already helps held out is worth a joint refit even if its training gain is modest)
+    top = ok[:n_full]
+    for h in sorted(ok, key=_key)[: max(2, n_full // 3)]:
+        if h not in top:
+            top.append(h)
+    fitted = []
+    for hs in top:
+        if data.expired:
+            break
+        start = {p: hs.value(p) for p in hs.extra if p in hs.model.param_names}
+        h = fit_hypothesis(spec, current, hs.last, data, nominal, start=start)
+        if not h.ok or (hs.ok and hs.delta_ic < h.delta_ic and hs.wsse_val < h.wsse_val):
+            # the longer refit did worse held out than the screening fit: keep that one
+            h = hs if hs.ok else h
+        fitted.append(h)
+        data.say(
+            f"{h.last.label}: held-out ΔIC {h.delta_ic:.1f}, mean NRMSE "
+            f"{h.validation_after.get('mean', math.nan):.4f} ({h.seconds:.1f} s)"
+        )
+    m = max(1, len(screened))
+    # a hypothesis that predicts the held-out data outright is stronger evidence than one
+    # whose course had to be re-estimated on them (a disturbance, a wander): among those that
+    # pass, predictive hypotheses first
+    fitted.sort(key=lambda h: (not passes(h, current, m), h.k_local > current.k_local, _key(h)))
+    oks = [passes(h, current, m) for h in fitted]
+    rest = [h for h in screened if h not in top]
+    rest.sort(key=lambda h: (h.error != "", h.delta_ic_train))
+    return fitted, oks, rest
+
+
+def _next_pool(pool: Sequence[Candidate], current: Hypothesis) -> list[Candidate]:
+    """Candidates at other places or of other effects than those kept."""
+    keys = {c.key for c in current.candidates}
+    kept = {(c.effect, c.target) for c in current.candidates}
+    return [c for c in pool if c.key not in keys and (c.effect, c.target) not in kept]
+
+
+def total_ic(nominal: Hypothesis, h: Hypothesis, data: Data) -> float:
+    """Held-out information criterion of a whole combination against the nominal model."""
+    chi2, n = whitened_chi2(residuals_of(nominal, data)[1], residuals_of(h, data)[1])
+    return delta_ic(chi2, h.k_global + len(data.val) * h.k_local, n)
+
+
 def forward_selection(
     spec: NominalSpec,
     nominal: Hypothesis,
@@ -390,62 +476,53 @@ def forward_selection(
     max_effects: int = MAX_EFFECTS,
     n_full_first: int = N_FULL_FIRST,
     n_full_next: int = N_FULL_NEXT,
+    beam: int = BEAM,
 ) -> Selection:
-    """Screen, refit the best jointly, keep the best that passes, repeat (module docstring)."""
+    """Forward selection with joint refits (module docstring).
+
+    The first round keeps the ``beam`` best passing hypotheses as separate
+    paths (two forms of one effect, or two effects that each mimic the other
+    partly, are told apart only once a second effect joins them); every path
+    then grows greedily; the combination with the lowest held-out information
+    criterion against the nominal model is reported.
+    """
     sel = Selection()
-    current = nominal
-    pool = list(candidates)
+    paths: list[tuple[list[Hypothesis], list[Candidate], bool]] = [([], list(candidates), False)]
     for r in range(max_effects):
-        if not pool or data.expired:
-            break
-        screened = []
-        for c in pool:
-            if data.expired:
-                data.say(f"time limit: {c.label} not screened")
-                break
-            h = fit_hypothesis(spec, current, c, data, nominal, screen=True)
-            screened.append(h)
-        ok = sorted((h for h in screened if not h.error), key=lambda h: h.delta_ic_train)
-        n_full = n_full_first if r == 0 else n_full_next
-        # the best by the training criterion, and by the held-out one (a screened fit that
-        # already helps held out is worth a joint refit even if its training gain is modest)
-        top = ok[:n_full]
-        for h in sorted(ok, key=_key)[: max(2, n_full // 3)]:
-            if h not in top:
-                top.append(h)
-        fitted = []
-        for hs in top:
-            if data.expired:
-                break
-            start = {p: hs.value(p) for p in hs.extra if p in hs.model.param_names}
-            h = fit_hypothesis(spec, current, hs.last, data, nominal, start=start)
-            if not h.ok or (hs.ok and hs.delta_ic < h.delta_ic and hs.wsse_val < h.wsse_val):
-                # the joint refit did worse than holding the parent: keep the screened fit
-                h = hs if hs.ok else h
-            fitted.append(h)
-            data.say(
-                f"{h.last.label}: held-out ΔIC {h.delta_ic:.1f}, z {h.z_val:.1f}, mean NRMSE "
-                f"{h.validation_after.get('mean', math.nan):.4f} ({h.seconds:.1f} s)"
+        grown: list[tuple[list[Hypothesis], list[Candidate], bool]] = []
+        for steps, pool, done in paths:
+            if done or not pool or data.expired:
+                grown.append((steps, pool, True))
+                continue
+            current = steps[-1] if steps else nominal
+            fitted, oks, rest = _round(
+                spec, current, pool, data, nominal, n_full_first if r == 0 else n_full_next
             )
-        fitted.sort(key=_key)
-        sel.rounds.append(fitted)
-        if r == 0:
-            rest = [h for h in screened if h not in top]
-            rest.sort(key=lambda h: (h.error != "", h.delta_ic_train))
-            sel.first_round = [*fitted, *rest]
-        m = max(1, len(screened))
-        winners = [h for h in fitted if passes(h, current, m, data.alpha)]
-        if not winners:
+            if r == 0:
+                sel.rounds.append(fitted)
+                sel.passed.append(oks)
+                sel.first_round = [*fitted, *rest]
+                # later rounds screen only what improved the training fit on its own: an
+                # effect that explains nothing alone is not the second of a combination
+                promising = {id(h.last) for h in sel.first_round if h.delta_ic_train < 0}
+                pool = [c for c in pool if id(c) in promising]
+            elif steps is paths[0][0]:
+                sel.rounds.append(fitted)
+                sel.passed.append(oks)
+            winners = [h for h, ok in zip(fitted, oks, strict=True) if ok]
+            if not winners:
+                grown.append((steps, pool, True))
+                continue
+            for w in winners[: beam if r == 0 else 1]:
+                data.say(f"kept {w.last.label} (ΔIC {w.delta_ic:.1f})")
+                grown.append(([*steps, w], _next_pool(pool, w), False))
+        paths = grown
+        if all(done for _, _, done in paths):
             break
-        best = winners[0]
-        sel.steps.append(best)
-        data.say(f"kept {best.last.label} (ΔIC {best.delta_ic:.1f})")
-        current = best
-        keys = {c.key for c in current.candidates}
-        effects = {c.effect for c in current.candidates}
-        # the next round: candidates at other places or of other effects
-        pool = [c for c in pool if c.key not in keys and not (c.effect in effects and
-                                                             c.target == best.last.target)]
+    finals = [(steps, total_ic(nominal, steps[-1], data)) for steps, _, _ in paths if steps]
+    if finals:
+        steps, _ = min(finals, key=lambda x: x[1])
+        sel.steps = list(steps)
     return sel
 
 
