@@ -52,7 +52,7 @@ class NodeModel(Model):
         self._require_positive(theta, self.param_names)
 
     def initial_state(self, theta, u0):
-        C, G, P = theta.T
+        _, G, P = theta.T
         return (u0[:, 1] + P * u0[:, 0] / 100.0 / G)[:, None]
 
     def _simulate(self, theta, u, dt, x0, return_states):

@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import math
 
-import numpy as np
 import pytest
 from _diag_plants import NodeModel, node_recordings
 
@@ -50,7 +49,9 @@ def test_delay_and_lag_are_told_apart():
     assert lag.best["params"]["tau_lag_T"]["value"] == pytest.approx(120.0, rel=0.25)
     # each fits its own data better than the other's form does
     d_forms = {(h["effect"], h["form"]): h["delta_ic"] for h in delay.hypotheses}
-    assert d_forms[("transport_delay", "input dead time")] < d_forms[("sensor_lag", "first-order lag")]
+    assert (
+        d_forms[("transport_delay", "input dead time")] < d_forms[("sensor_lag", "first-order lag")]
+    )
 
 
 def test_two_effects_at_once_are_both_reported_with_their_shares():
@@ -76,10 +77,12 @@ def test_units_missing_heat_transfer_is_tried_as_celsius_and_said():
     tr, va = node_recordings(7, effects={"radiation": 0.2}, **_FAST)
 
     def strip(r: Recording) -> Recording:
-        return Recording(r.time, {c: r[c] for c in r.columns}, experiment_id=r.experiment_id,
-                         roles=dict(r.roles))
+        return Recording(
+            r.time, {c: r[c] for c in r.columns}, experiment_id=r.experiment_id, roles=dict(r.roles)
+        )
 
-    rep = diagnose("foptd", [strip(r) for r in tr], [strip(r) for r in va],
-                   inputs=["u", "T_a"], outputs=["T"])
+    rep = diagnose(
+        "foptd", [strip(r) for r in tr], [strip(r) for r in va], inputs=["u", "T_a"], outputs=["T"]
+    )
     assert any("°C" in n for n in rep.notes)
     assert any(h["effect"] == "nonlinear_heat_transfer" for h in rep.hypotheses)

@@ -51,11 +51,17 @@ _SPECS = [
     ("transport_delay", "y2", {"form": "output", "history": 12}),
     ("nonlinear_heat_transfer", "y", {"form": "radiation", "port": "Ta", "reference": "Ta"}),
     ("nonlinear_heat_transfer", "y2", {"form": "convection", "port": "u", "scale": 0.5}),
-    ("input_dependent_heat_transfer", "y", {"form": "power", "port": "Ta", "source": "u",
-                                            "reference": "Ta"}),
+    (
+        "input_dependent_heat_transfer",
+        "y",
+        {"form": "power", "port": "Ta", "source": "u", "reference": "Ta"},
+    ),
     ("time_varying_parameter", "y2", {"form": "ramp", "port": "Ta", "reference": "Ta"}),
-    ("time_varying_parameter", "y", {"form": "random_walk", "port": "Ta", "span": 400.0,
-                                     "segments": 3}),
+    (
+        "time_varying_parameter",
+        "y",
+        {"form": "random_walk", "port": "Ta", "span": 400.0, "segments": 3},
+    ),
     ("missing_dynamics", "y2", {"form": "extra_node", "port": "Ta"}),
     ("phase_change", "y", {"form": "latent_heat", "port": "u", "T_melt": 21.0}),
 ]
@@ -181,9 +187,7 @@ def test_sensor_lag_is_the_exact_lag_of_a_continuous_signal_and_delay_the_foptd_
     # the curvature of a 60 s lag over 1 s, far closer than the zero-order hold of the
     # rig's sampled lag (half a sample late)
     np.testing.assert_allclose(got, truth, atol=2e-3)
-    assert np.max(np.abs(first_order_lag(y, 25.0, 1.0) - truth)) > 5 * np.max(
-        np.abs(got - truth)
-    )
+    assert np.max(np.abs(first_order_lag(y, 25.0, 1.0) - truth)) > 5 * np.max(np.abs(got - truth))
     delayed = AugmentedModel("foptd", base, [{"effect": "transport_delay", "signal": "u"}])
     got = delayed.simulate(u, 1.0, {"delay_u": 12.0}).outputs[0, :, 0]
     truth = FOPTDModel(**base, tau=12.0).simulate(u, 1.0).outputs[0, :, 0]
@@ -226,7 +230,9 @@ def test_bad_augmentations_are_refused_by_name():
     with pytest.raises(ConfigError, match="'port' 'T_nope' is not an exogenous signal"):
         AugmentedModel("foptd", _BASE, [{"effect": "nonlinear_heat_transfer", "signal": "y",
                                           "form": "radiation", "port": "T_nope"}])  # fmt: skip
-    with pytest.raises(ConfigError, match="input_nonlinearity u_ref is 'fast'; expected a positive number"):
+    with pytest.raises(
+        ConfigError, match="input_nonlinearity u_ref is 'fast'; expected a positive number"
+    ):
         AugmentedModel("foptd", _BASE, [{"effect": "input_nonlinearity", "signal": "u",
                                           "u_ref": "fast"}])  # fmt: skip
     with pytest.raises(ConfigError, match=r"nonlinear_heat_transfer dT_ref is -1\.0"):

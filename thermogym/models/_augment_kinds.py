@@ -246,7 +246,11 @@ class _Delay(_Aug):
             raise ConfigError(f"transport_delay history is {self.history}; expected >= 0")
         self.params = [
             _param(
-                f"delay_{self.signal}", 0.0, max(0.0, lo), hi, "s",
+                f"delay_{self.signal}",
+                0.0,
+                max(0.0, lo),
+                hi,
+                "s",
                 f"dead time of {self.signal} before it acts on the plant",
             )
         ]
@@ -428,8 +432,13 @@ class _Supply(_Aug, _CourseMixin):
         lo, hi = _bounds(spec, "relative", (-0.6, 0.6))
         self.params = [
             _param(
-                f"sv_k{i}_{self.signal}", 0.0, lo, hi, "1",
-                f"relative change of the supply behind {self.signal}, knot {i}", LOCAL,
+                f"sv_k{i}_{self.signal}",
+                0.0,
+                lo,
+                hi,
+                "1",
+                f"relative change of the supply behind {self.signal}, knot {i}",
+                LOCAL,
             )
             for i in range(self.n_knots)
         ]
@@ -465,7 +474,11 @@ class _InputMap(_Aug):
             lo, hi = _bounds(spec, "c", (0.0, 20.0))
             self.params = [
                 _param(
-                    f"sat_{sig}", 0.0, lo, hi, "1",
+                    f"sat_{sig}",
+                    0.0,
+                    lo,
+                    hi,
+                    "1",
                     f"saturation of {sig}: u (1 + c)/(1 + c|u|/u_ref)",
                 )
             ]
@@ -473,7 +486,11 @@ class _InputMap(_Aug):
             lo, hi = _bounds(spec, "d", (0.0, 0.9 * self.u_ref))
             self.params = [
                 _param(
-                    f"dz_{sig}", 0.0, lo, hi, unit,
+                    f"dz_{sig}",
+                    0.0,
+                    lo,
+                    hi,
+                    unit,
                     f"dead zone of {sig}: nothing acts below it",
                 )
             ]
@@ -491,7 +508,11 @@ class _InputMap(_Aug):
             # keeps the first and last knots (the gain stays the model's)
             self.params = [
                 _param(
-                    f"pwl{i}_{sig}", 1.0, lo, hi, "1",
+                    f"pwl{i}_{sig}",
+                    1.0,
+                    lo,
+                    hi,
+                    "1",
                     f"slope of {sig}'s map between {knots[i]:.4g} and {knots[i + 1]:.4g}, "
                     "relative to the first segment",
                 )
@@ -520,7 +541,7 @@ class _InputMap(_Aug):
         vals = q[0] + (q[-1] - q[0]) * np.concatenate(
             [np.zeros((*p.shape[:-1], 1)), np.cumsum(w, axis=-1) / tot], axis=-1
         )  # map at the knots (B, K+1)
-        out = np.empty(np.broadcast_shapes(x.shape, vals.shape[:-1] + (1,)))
+        out = np.empty(np.broadcast_shapes(x.shape, (*vals.shape[:-1], 1)))
         xb = np.broadcast_to(x, out.shape)
         for b in range(out.shape[0]):
             vb = vals[b] if vals.ndim > 1 else vals
@@ -552,7 +573,11 @@ class _InputPlay(_Aug):
         lo, hi = _bounds(spec, "c", (0.0, 1.0))
         self.params = [
             _param(
-                f"backlash_{self.signal}", 0.0, lo, hi, self.units.get(self.signal, "1"),
+                f"backlash_{self.signal}",
+                0.0,
+                lo,
+                hi,
+                self.units.get(self.signal, "1"),
                 f"half width of the play between the {self.signal} command and its effect",
             )
         ]
@@ -589,7 +614,11 @@ class _InputLag(_Aug):
         lo, hi = _bounds(spec, "tau", (0.0, 86400.0))
         self.params = [
             _param(
-                f"lag_in_{self.signal}", 0.0, max(lo, 0.0), hi, "s",
+                f"lag_in_{self.signal}",
+                0.0,
+                max(lo, 0.0),
+                hi,
+                "s",
                 f"time constant of a store between {self.signal} and the plant",
             )
         ]
@@ -677,13 +706,19 @@ class _NonlinearLoss(_Loop):
         self.params = [
             _param(
                 f"kappa_{'rad' if self.form == 'radiation' else 'conv'}_{self.tag}",
-                0.0, lo, hi, "1", f"{what} of {self.signal}",
+                0.0,
+                lo,
+                hi,
+                "1",
+                f"{what} of {self.signal}",
             )
         ]
 
     def describe(self) -> str:
-        return "radiation (T⁴ in kelvin)" if self.form == "radiation" else (
-            f"natural convection (ΔT^{self.n:g})"
+        return (
+            "radiation (T⁴ in kelvin)"
+            if self.form == "radiation"
+            else (f"natural convection (ΔT^{self.n:g})")
         )
 
     init = _Aug.start_at_output
@@ -726,11 +761,17 @@ class _ForcedLoss(_Loop):
         src = self.exo[self.src]
         self.params = [
             _param(
-                f"kappa_fc_{self.tag}", 0.0, lo, hi, "1",
+                f"kappa_fc_{self.tag}",
+                0.0,
+                lo,
+                hi,
+                "1",
                 f"conductance growing with {src}, at u_ref = {self.u_ref:.4g}, as a share of the "
                 "linear loss",
             ),
-            _param(f"m_fc_{self.tag}", 0.8, mlo, mhi, "1", f"exponent of {src} in that conductance"),
+            _param(
+                f"m_fc_{self.tag}", 0.8, mlo, mhi, "1", f"exponent of {src} in that conductance"
+            ),
         ]
 
     def describe(self) -> str:
@@ -764,7 +805,11 @@ class _VaryingLoss(_Loop, _CourseMixin):
             lo, hi = _bounds(spec, "rate", (-0.5, 0.5))
             self.params = [
                 _param(
-                    f"tv_ramp_{sig}", 0.0, lo, hi, "1/h",
+                    f"tv_ramp_{sig}",
+                    0.0,
+                    lo,
+                    hi,
+                    "1/h",
                     f"change per hour of {self.signal}'s loss conductance (share of the linear "
                     "loss) since the recording's start",
                 )
@@ -774,12 +819,22 @@ class _VaryingLoss(_Loop, _CourseMixin):
             self.span = _number(spec, "span", 86400.0, self.effect)
             self.params = [
                 _param(
-                    f"tv_step_{sig}", 0.0, lo, hi, "1",
-                    f"step of {self.signal}'s loss conductance (share of the linear loss)", LOCAL,
+                    f"tv_step_{sig}",
+                    0.0,
+                    lo,
+                    hi,
+                    "1",
+                    f"step of {self.signal}'s loss conductance (share of the linear loss)",
+                    LOCAL,
                 ),
                 _param(
-                    f"tv_at_{sig}", 0.5, 0.02, 0.98, "1",
-                    "time of the step, as a share of the span", LOCAL,
+                    f"tv_at_{sig}",
+                    0.5,
+                    0.02,
+                    0.98,
+                    "1",
+                    "time of the step, as a share of the span",
+                    LOCAL,
                 ),
             ]
         elif self.form == "random_walk":
@@ -787,8 +842,13 @@ class _VaryingLoss(_Loop, _CourseMixin):
             lo, hi = _bounds(spec, "size", (-0.8, 2.0))
             self.params = [
                 _param(
-                    f"tv_k{i}_{sig}", 0.0, lo, hi, "1",
-                    f"change of {self.signal}'s loss conductance, knot {i}", LOCAL,
+                    f"tv_k{i}_{sig}",
+                    0.0,
+                    lo,
+                    hi,
+                    "1",
+                    f"change of {self.signal}'s loss conductance, knot {i}",
+                    LOCAL,
                 )
                 for i in range(self.n_knots)
             ]
@@ -841,11 +901,19 @@ class _ExtraNode(_Loop):
         klo, khi = _bounds(spec, "kappa", (0.0, 3.0))
         self.params = [
             _param(
-                f"xn_tau_{self.signal}", float(np.clip(spec.get("tau", 3600.0), lo, hi)), lo, hi,
-                "s", f"time constant of a mass coupled to {self.signal}'s node",
+                f"xn_tau_{self.signal}",
+                float(np.clip(spec.get("tau", 3600.0), lo, hi)),
+                lo,
+                hi,
+                "s",
+                f"time constant of a mass coupled to {self.signal}'s node",
             ),
             _param(
-                f"xn_kappa_{self.signal}", 0.0, klo, khi, "1",
+                f"xn_kappa_{self.signal}",
+                0.0,
+                klo,
+                khi,
+                "1",
                 f"coupling of that mass, as a share of the linear loss of {self.signal}",
             ),
         ]
@@ -883,12 +951,20 @@ class _Latent(_Loop):
         sig = self.signal
         self.params = [
             _param(
-                f"pc_kappa_{sig}", 0.0, klo, khi, "s",
+                f"pc_kappa_{sig}",
+                0.0,
+                klo,
+                khi,
+                "s",
                 f"latent heat at {sig}'s node, as seconds of its linear loss per kelvin",
             ),
             _param(
-                f"pc_T_{sig}", float(np.clip(spec.get("T_melt", 0.5 * (tlo + thi)), tlo, thi)),
-                tlo, thi, self.units.get(sig, "1"), "centre of the melting range",
+                f"pc_T_{sig}",
+                float(np.clip(spec.get("T_melt", 0.5 * (tlo + thi)), tlo, thi)),
+                tlo,
+                thi,
+                self.units.get(sig, "1"),
+                "centre of the melting range",
             ),
             _param(f"pc_w_{sig}", float(np.clip(2.0, wlo, whi)), wlo, whi, "K", "melting width"),
         ]
@@ -1019,7 +1095,11 @@ class _Saturating(_StaticRise):
         lo, hi = _bounds(spec, "gamma", (-0.2, 5.0))
         self.params = [
             _param(
-                f"gamma_{self.tag}", 0.0, lo, hi, "1",
+                f"gamma_{self.tag}",
+                0.0,
+                lo,
+                hi,
+                "1",
                 f"growth of the loss conductance of {self.signal} per ΔT_ref = {self.dT_ref:g} K",
             )
         ]
@@ -1047,7 +1127,11 @@ class _StaticForced(_StaticRise):
         lo, hi = _bounds(spec, "beta", (-0.5, 5.0))
         self.params = [
             _param(
-                f"beta_{self.tag}", 0.0, lo, hi, "1",
+                f"beta_{self.tag}",
+                0.0,
+                lo,
+                hi,
+                "1",
                 f"growth of the loss conductance with {self.exo[self.src]} per u_ref = "
                 f"{self.u_ref:g}",
             )
@@ -1071,7 +1155,11 @@ class _StaticDrift(_StaticRise):
         lo, hi = _bounds(spec, "rate", (-0.5, 0.5))
         self.params = [
             _param(
-                f"tv_rate_{self.tag}", 0.0, lo, hi, "1/h",
+                f"tv_rate_{self.tag}",
+                0.0,
+                lo,
+                hi,
+                "1/h",
                 f"relative change per hour of the rise of {self.signal}",
             )
         ]
@@ -1105,7 +1193,12 @@ class _OutputPlay(_Aug):
         lo, hi = _bounds(spec, "c", (0.0, 1.0))
         self.params = [
             _param(
-                f"backlash_{self.signal}", 0.0, lo, hi, unit, f"half width of the play in {self.signal}"
+                f"backlash_{self.signal}",
+                0.0,
+                lo,
+                hi,
+                unit,
+                f"half width of the play in {self.signal}",
             )
         ]
 
@@ -1137,7 +1230,11 @@ class _ResidualODE(_Aug):
             raise ConfigError(f"residual_ode terms {bad} unknown; terms are {list(RESIDUAL_TERMS)}")
         self.params = [
             _param(
-                f"c_{term_tag(t)}_{self.signal}", 0.0, -1e9, 1e9, "per s",
+                f"c_{term_tag(t)}_{self.signal}",
+                0.0,
+                -1e9,
+                1e9,
+                "per s",
                 f"coefficient of term {t!r} in de/dt of {self.signal}",
             )
             for t in self.terms
@@ -1236,7 +1333,11 @@ class _Lag(_Aug):
         lo, hi = _bounds(spec, "tau", (0.0, 7200.0))
         self.params = [
             _param(
-                f"tau_lag_{self.signal}", 0.0, max(lo, 0.0), hi, "s",
+                f"tau_lag_{self.signal}",
+                0.0,
+                max(lo, 0.0),
+                hi,
+                "s",
                 f"time constant of the {self.signal} sensor",
             )
         ]
@@ -1278,7 +1379,11 @@ class _OutputDelay(_Delay):
             raise ConfigError(f"transport_delay history is {self.history}; expected >= 0")
         self.params = [
             _param(
-                f"delay_out_{self.signal}", 0.0, max(0.0, lo), hi, "s",
+                f"delay_out_{self.signal}",
+                0.0,
+                max(0.0, lo),
+                hi,
+                "s",
                 f"dead time before the {self.signal} sensor sees its signal",
             )
         ]
@@ -1324,7 +1429,11 @@ class _SensorDrift(_Aug):
         lo, hi = _bounds(spec, "rate", (-50.0, 50.0))
         self.params = [
             _param(
-                f"drift_{self.signal}", 0.0, lo, hi, f"{unit}/h",
+                f"drift_{self.signal}",
+                0.0,
+                lo,
+                hi,
+                f"{unit}/h",
                 f"drift of the {self.signal} sensor per hour",
             )
         ]

@@ -57,9 +57,10 @@ largest change is below ``1e-8`` of the output's scale; a loop strong enough
 to need more than a dozen passes is fed back sample by sample with the base
 model's own ``step`` instead (exact), or relaxed up to
 :data:`MAX_RELAXATION` passes when the base model cannot step (a set that
-does not converge is returned as NaN). The base model is strictly proper (``y[k]`` depends on inputs before
-``k``), so each pass makes one more sample exact and the fixed point is the
-sample-by-sample feedback that :meth:`AugmentedModel.step` computes.
+does not converge is returned as NaN). The base model is strictly proper
+(``y[k]`` depends on inputs before ``k``), so each pass makes one more sample
+exact and the fixed point is the sample-by-sample feedback that
+:meth:`AugmentedModel.step` computes.
 
 Per-recording parameters (group ``"local"``) are fitted in every recording
 by the diagnosis; a model used elsewhere (environments) runs with them at
@@ -214,9 +215,7 @@ class AugmentedModel(Model):
                 )
             augs.append(kind_of(spec)(spec, self.base))
         order = list(AUGMENTATIONS)
-        self._augs = sorted(
-            augs, key=lambda a: (_SIDES.index(a.side), order.index(a.effect))
-        )
+        self._augs = sorted(augs, key=lambda a: (_SIDES.index(a.side), order.index(a.effect)))
         self._specs = [dict(a.spec) for a in self._augs]
         params = list(self.base.parameters)
         index = {p.name: i for i, p in enumerate(params)}
@@ -411,7 +410,10 @@ class AugmentedModel(Model):
                 if idx.size == 0:
                     break
             g, xs_new = self.base._simulate(
-                np.ascontiguousarray(tb[idx]), u_it, dt, np.ascontiguousarray(xb[idx]),
+                np.ascontiguousarray(tb[idx]),
+                u_it,
+                dt,
+                np.ascontiguousarray(xb[idx]),
                 return_states,
             )
             g = np.asarray(g, dtype=float)

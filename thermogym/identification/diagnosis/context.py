@@ -123,7 +123,9 @@ class Context:
     def column(self, name: str, train_only: bool = False) -> list[NDArray[np.float64]]:
         """An exogenous signal per recording."""
         j = list(self.exogenous).index(name)
-        return [u[:, j] for u, tr in zip(self.u, self.is_train, strict=True) if tr or not train_only]
+        return [
+            u[:, j] for u, tr in zip(self.u, self.is_train, strict=True) if tr or not train_only
+        ]
 
     def varies(self, name: str) -> bool:
         """Whether an exogenous signal changes in the training data."""
@@ -160,7 +162,9 @@ class Context:
     @property
     def duration(self) -> float:
         """Shortest training recording [s]."""
-        return float(min(t[-1] - t[0] for t, tr in zip(self.time, self.is_train) if tr))
+        return float(
+            min(t[-1] - t[0] for t, tr in zip(self.time, self.is_train, strict=True) if tr)
+        )
 
     @property
     def span(self) -> float:
@@ -292,9 +296,7 @@ def signatures(ctx: Context) -> dict[str, Any]:
             "xcorr": {},
         }
         for name in ctx.exogenous:
-            lag_s, h, w = _xcorr_peak(
-                [r[:, j] for r in res], ctx.column(name), dt, max_lag
-            )
+            lag_s, h, w = _xcorr_peak([r[:, j] for r in res], ctx.column(name), dt, max_lag)
             feats["xcorr"][name] = {"peak_lag_s": lag_s, "height": h, "width_s": w}
         for reg in ctx.regimes:
             if reg["signal"] != o:

@@ -276,8 +276,10 @@ def _has_own(ctx: Context, prefix: str, signal: str) -> bool:
 
 
 def _targets(ctx: Context, temperature: bool = False) -> list[str]:
-    outs = ctx.temperature_outputs if temperature else sorted(
-        ctx.outputs, key=lambda o: -ctx.share.get(o, 0.0)
+    outs = (
+        ctx.temperature_outputs
+        if temperature
+        else sorted(ctx.outputs, key=lambda o: -ctx.share.get(o, 0.0))
     )
     return outs[:_MAX_TARGETS]
 
@@ -334,7 +336,10 @@ def _sensor_offset(ctx: Context) -> list[Candidate]:
         spec = {"effect": "sensor_offset", "signal": o, "bounds": {"offset": [-5 * sc, 5 * sc]}}
         out.append(
             Candidate(
-                "sensor_offset", "constant", o, (spec,),
+                "sensor_offset",
+                "constant",
+                o,
+                (spec,),
                 starts=_starts({f"offset_{o}": (-2 * sc, 2 * sc)}, 2),
                 evidence=f"mean residual of {o} = {f.get('offset_value', 0.0):.3g} "
                 f"{ctx.units.get(o, '')}, {100 * f.get('offset', 0.0):.0f} % of its mean square",
@@ -354,7 +359,10 @@ def _sensor_drift(ctx: Context) -> list[Candidate]:
         spec = {"effect": "sensor_drift", "signal": o, "bounds": {"rate": [-hi, hi]}}
         out.append(
             Candidate(
-                "sensor_drift", "linear from the logger's start", o, (spec,),
+                "sensor_drift",
+                "linear from the logger's start",
+                o,
+                (spec,),
                 starts=_starts({f"drift_{o}": (-0.2 * hi, 0.2 * hi)}, 2),
                 evidence=f"residual of {o} grows by {f.get('drift_per_h', 0.0):.3g} "
                 f"{ctx.units.get(o, '')}/h (R² = {f.get('drift', 0.0):.2f})",
@@ -377,7 +385,10 @@ def _sensor_lag(ctx: Context) -> list[Candidate]:
             starts.insert(0, {f"tau_lag_{o}": float(guess)})
         out.append(
             Candidate(
-                "sensor_lag", "first-order lag", o, (spec,),
+                "sensor_lag",
+                "first-order lag",
+                o,
+                (spec,),
                 starts=tuple(starts),
                 evidence=f"residual of {o} ≈ −τ·dŷ/dt with R² = {f.get('lag', 0.0):.2f}, "
                 f"τ ≈ {guess:.3g} s",
@@ -403,11 +414,18 @@ def _transport_delay(ctx: Context) -> list[Candidate]:
         starts = list(_starts({f"delay_{name}": (ctx.dt_min, 0.2 * hi)}, 2))
         if 0 < lag < hi:
             starts.insert(0, {f"delay_{name}": float(lag)})
-        spec = {"effect": "transport_delay", "signal": name, "form": "input",
-                "bounds": {"delay": [0.0, hi]}}
+        spec = {
+            "effect": "transport_delay",
+            "signal": name,
+            "form": "input",
+            "bounds": {"delay": [0.0, hi]},
+        }
         out.append(
             Candidate(
-                "transport_delay", "input dead time", name, (spec,),
+                "transport_delay",
+                "input dead time",
+                name,
+                (spec,),
                 starts=tuple(starts),
                 evidence=f"residual correlates with the changes of {name} {lag:.3g} s earlier "
                 f"(|r| = {height:.2f})",
@@ -422,11 +440,18 @@ def _transport_delay(ctx: Context) -> list[Candidate]:
         starts = list(_starts({f"delay_out_{o}": (ctx.dt_min, 0.2 * hi)}, 2))
         if 0 < lag < hi:
             starts.insert(0, {f"delay_out_{o}": float(lag)})
-        spec = {"effect": "transport_delay", "signal": o, "form": "output",
-                "bounds": {"delay": [0.0, hi]}}
+        spec = {
+            "effect": "transport_delay",
+            "signal": o,
+            "form": "output",
+            "bounds": {"delay": [0.0, hi]},
+        }
         out.append(
             Candidate(
-                "transport_delay", "output dead time", o, (spec,),
+                "transport_delay",
+                "output dead time",
+                o,
+                (spec,),
                 starts=tuple(starts),
                 evidence=f"residual of {o} correlates with input changes {lag:.3g} s earlier "
                 f"(|r| = {height:.2f})",
@@ -455,21 +480,34 @@ def _input_nonlinearity(ctx: Context) -> list[Candidate]:
         forms = [
             ("power", "power law", {}, {f"alpha_{i}": (0.5, 2.0)}),
             ("saturation", "saturation", {}, {f"sat_{i}": (0.2, 3.0)}),
-            ("dead_zone", "dead zone", {"bounds": {"d": [0.0, 0.8 * ur]}},
-             {f"dz_{i}": (0.05 * ur, 0.5 * ur)}),
+            (
+                "dead_zone",
+                "dead zone",
+                {"bounds": {"d": [0.0, 0.8 * ur]}},
+                {f"dz_{i}": (0.05 * ur, 0.5 * ur)},
+            ),
         ]
         knots = np.linspace(lo_u, hi_u, 5)
         if np.all(np.diff(knots) > 0):
             forms.append(
-                ("piecewise_linear", "monotone piecewise-linear", {"knots": knots.tolist()},
-                 {f"pwl{k}_{i}": (0.3, 3.0) for k in range(1, 4)})
+                (
+                    "piecewise_linear",
+                    "monotone piecewise-linear",
+                    {"knots": knots.tolist()},
+                    {f"pwl{k}_{i}": (0.3, 3.0) for k in range(1, 4)},
+                )
             )
         for form, words, extra, box in forms:
             spec = {"effect": "input_nonlinearity", "signal": i, "form": form, "u_ref": ur, **extra}
             out.append(
                 Candidate(
-                    "input_nonlinearity", words, i, (spec,),
-                    starts=_starts(box, 2), evidence=ev, prior=level,
+                    "input_nonlinearity",
+                    words,
+                    i,
+                    (spec,),
+                    starts=_starts(box, 2),
+                    evidence=ev,
+                    prior=level,
                 )
             )
     return out
@@ -484,11 +522,18 @@ def _backlash(ctx: Context) -> list[Candidate]:
             continue
         v = np.concatenate(ctx.column(i, True))
         span = float(np.ptp(v))
-        spec = {"effect": "backlash", "signal": i, "form": "input",
-                "bounds": {"c": [0.0, 0.3 * span]}}
+        spec = {
+            "effect": "backlash",
+            "signal": i,
+            "form": "input",
+            "bounds": {"c": [0.0, 0.3 * span]},
+        }
         out.append(
             Candidate(
-                "backlash", "play on the input", i, (spec,),
+                "backlash",
+                "play on the input",
+                i,
+                (spec,),
                 starts=_starts({f"backlash_{i}": (0.01 * span, 0.15 * span)}, 2),
                 evidence=f"{i} reverses {ctx.reversals(i)} times; residual differs between "
                 f"rising and falling (η² up to {d:.2f})",
@@ -502,7 +547,10 @@ def _backlash(ctx: Context) -> list[Candidate]:
         spec = {"effect": "backlash", "signal": o, "bounds": {"c": [0.0, 2 * sc]}}
         out.append(
             Candidate(
-                "backlash", "play on the output", o, (spec,),
+                "backlash",
+                "play on the output",
+                o,
+                (spec,),
                 starts=_starts({f"backlash_{o}": (0.02 * sc, 0.4 * sc)}, 2),
                 evidence=f"residual of {o} differs between opening and closing "
                 f"(η² = {fo.get(o, {}).get('direction', 0.0):.2f})",
@@ -517,11 +565,19 @@ def _supply_variation(ctx: Context) -> list[Candidate]:
     on = max((f.get("onoff", 0.0) for f in _fo(ctx).values()), default=0.0)
     for i in _manipulated(ctx):
         for form, words in (("steps", "steps"), ("smooth", "smooth wander")):
-            spec = {"effect": "supply_variation", "signal": i, "form": form, "span": ctx.span,
-                    "segments": 6}
+            spec = {
+                "effect": "supply_variation",
+                "signal": i,
+                "form": form,
+                "span": ctx.span,
+                "segments": 6,
+            }
             out.append(
                 Candidate(
-                    "supply_variation", words, i, (spec,),
+                    "supply_variation",
+                    words,
+                    i,
+                    (spec,),
                     evidence=f"residual changes with {i} on and off (η² up to {on:.2f}) and "
                     "over a run",
                     prior=0.5 * on,
@@ -550,23 +606,41 @@ def _unmeasured_disturbance(ctx: Context) -> list[Candidate]:
         else "no clear spectral peak"
     )
     p0 = float(np.clip(period if math.isfinite(period) else dur / 2, per_lo, per_hi))
-    spec = {"effect": "unmeasured_disturbance", "signal": port, "form": "periodic",
-            "period": p0, "bounds": {"amplitude": [-amp, amp], "period": [per_lo, per_hi]}}
+    spec = {
+        "effect": "unmeasured_disturbance",
+        "signal": port,
+        "form": "periodic",
+        "period": p0,
+        "bounds": {"amplitude": [-amp, amp], "period": [per_lo, per_hi]},
+    }
     out.append(
         Candidate(
-            "unmeasured_disturbance", "periodic", port, (spec,),
-            starts=tuple({f"dist_period_{port}": float(np.clip(f * p0, per_lo, per_hi))}
-                         for f in (0.5, 2.0)),
+            "unmeasured_disturbance",
+            "periodic",
+            port,
+            (spec,),
+            starts=tuple(
+                {f"dist_period_{port}": float(np.clip(f * p0, per_lo, per_hi))} for f in (0.5, 2.0)
+            ),
             evidence=ev_p,
             prior=min(1.0, feats.get("period_peak", 0.0) / 50.0),
         )
     )
     for form, words in (("steps", "steps"), ("smooth", "smooth")):
-        spec = {"effect": "unmeasured_disturbance", "signal": port, "form": form,
-                "span": ctx.span, "segments": 6, "bounds": {"amplitude": [-amp, amp]}}
+        spec = {
+            "effect": "unmeasured_disturbance",
+            "signal": port,
+            "form": form,
+            "span": ctx.span,
+            "segments": 6,
+            "bounds": {"amplitude": [-amp, amp]},
+        }
         out.append(
             Candidate(
-                "unmeasured_disturbance", words, port, (spec,),
+                "unmeasured_disturbance",
+                words,
+                port,
+                (spec,),
                 evidence="autocorrelated residual unrelated to the inputs",
                 prior=0.2,
             )
@@ -594,7 +668,10 @@ def _nonlinear_heat_transfer(ctx: Context) -> list[Candidate]:
             tag = "rad" if form == "radiation" else "conv"
             out.append(
                 Candidate(
-                    "nonlinear_heat_transfer", words + _assumption(ctx), o, (spec,),
+                    "nonlinear_heat_transfer",
+                    words + _assumption(ctx),
+                    o,
+                    (spec,),
                     starts=_starts({f"kappa_{tag}_{o}": (0.05, 1.0)}, 2),
                     evidence=f"residual of {o} depends on the temperature band (η² up to "
                     f"{band:.2f})",
@@ -614,7 +691,11 @@ def _input_dependent(ctx: Context) -> list[Candidate]:
         for src in _manipulated(ctx):
             for ref in refs:
                 spec = _loop_spec(
-                    ctx, o, effect="input_dependent_heat_transfer", form="power", source=src,
+                    ctx,
+                    o,
+                    effect="input_dependent_heat_transfer",
+                    form="power",
+                    source=src,
                     u_ref=ctx.u_ref(src),
                 )
                 if spec is None:
@@ -626,7 +707,10 @@ def _input_dependent(ctx: Context) -> list[Candidate]:
                 where = f"{o}–{ref}" if ref else o
                 out.append(
                     Candidate(
-                        "input_dependent_heat_transfer", f"conductance ∝ {src}^m", where, (spec,),
+                        "input_dependent_heat_transfer",
+                        f"conductance ∝ {src}^m",
+                        where,
+                        (spec,),
                         starts=_starts({f"kappa_fc_{o}": (0.05, 1.0), f"m_fc_{o}": (0.4, 1.5)}, 2),
                         evidence=f"residual depends on the level of {src} (η² up to {level:.2f})",
                         prior=level,
@@ -651,7 +735,10 @@ def _time_varying(ctx: Context) -> list[Candidate]:
                 continue
             out.append(
                 Candidate(
-                    "time_varying_parameter", f"loss conductance: {words}", o, (spec,),
+                    "time_varying_parameter",
+                    f"loss conductance: {words}",
+                    o,
+                    (spec,),
                     starts=_starts(box, 2) if box else (),
                     evidence=f"the error of {o} changes within a run (R² of a trend "
                     f"{f.get('drift', 0.0):.2f})",
@@ -668,25 +755,39 @@ def _missing_dynamics(ctx: Context) -> list[Candidate]:
     dt = ctx.dt_min
     for o in _targets(ctx, temperature=True):
         spec = _loop_spec(
-            ctx, o, effect="missing_dynamics", form="extra_node",
-            bounds={"tau": [dt, 3 * dur]}, tau=float(np.clip(dur / 10, dt, 3 * dur)),
+            ctx,
+            o,
+            effect="missing_dynamics",
+            form="extra_node",
+            bounds={"tau": [dt, 3 * dur]},
+            tau=float(np.clip(dur / 10, dt, 3 * dur)),
         )
         if spec is None:
             continue
         out.append(
             Candidate(
-                "missing_dynamics", "mass coupled to the node", o, (spec,),
+                "missing_dynamics",
+                "mass coupled to the node",
+                o,
+                (spec,),
                 starts=_starts({f"xn_tau_{o}": (2 * dt, dur), f"xn_kappa_{o}": (0.1, 1.5)}, 3),
                 evidence=f"autocorrelated residual of {o} without a more specific pattern",
                 prior=0.3 * fo.get(o, {}).get("share", 0.0),
             )
         )
     for i in _manipulated(ctx):
-        spec = {"effect": "missing_dynamics", "signal": i, "form": "input_lag",
-                "bounds": {"tau": [0.0, dur]}}
+        spec = {
+            "effect": "missing_dynamics",
+            "signal": i,
+            "form": "input_lag",
+            "bounds": {"tau": [0.0, dur]},
+        }
         out.append(
             Candidate(
-                "missing_dynamics", f"store between {i} and the plant", i, (spec,),
+                "missing_dynamics",
+                f"store between {i} and the plant",
+                i,
+                (spec,),
                 starts=_starts({f"lag_in_{i}": (2 * dt, 0.2 * dur)}, 2),
                 evidence=f"the response to {i} is slower than the model's",
                 prior=0.2,
@@ -713,12 +814,20 @@ def _parallel_path(ctx: Context, n_params: int | None = None) -> list[Candidate]
         bounds[f"gain_{c}"] = [-kmax, kmax]
         name = f"md_K_{o}" if len(srcs) == 1 else f"md_K_{o}__{c}"
         box[name] = (-0.3 * kmax, 0.3 * kmax)
-    spec = {"effect": "missing_dynamics", "signal": o, "sources": srcs, "bounds": bounds,
-            "T": float(np.clip(dur / 5, dt, 3 * dur))}
+    spec = {
+        "effect": "missing_dynamics",
+        "signal": o,
+        "sources": srcs,
+        "bounds": bounds,
+        "T": float(np.clip(dur / 5, dt, 3 * dur)),
+    }
     auto = max(((1.0 - f.get("lag", 0.0)) * f.get("share", 0.0) for f in fo.values()), default=0)
     return [
         Candidate(
-            "missing_dynamics", "extra first-order path from the inputs", o, (spec,),
+            "missing_dynamics",
+            "extra first-order path from the inputs",
+            o,
+            (spec,),
             starts=_starts(box, 3),
             evidence="autocorrelated residual without a more specific pattern (Annex 58: add a "
             "state)",
@@ -745,14 +854,22 @@ def _network_node(ctx: Context) -> list[Candidate]:
         node = m.nodes[j]
         c_node = float(net.C[0, j])
         g_node = float(net.G[0, j].sum() + net.g_amb[0, j])
-        bounds = {"C": [0.1 * c_node, 200 * c_node], "G": [0.0, 20 * g_node],
-                  "g": [0.0, 5 * g_node]}
+        bounds = {
+            "C": [0.1 * c_node, 200 * c_node],
+            "G": [0.0, 20 * g_node],
+            "g": [0.0, 5 * g_node],
+        }
         spec = {"effect": "missing_dynamics", "node": node, "bounds": bounds}
         out.append(
             Candidate(
-                "missing_dynamics", "heat capacity at a node", f"mass at {node}", (spec,),
-                starts=_starts({f"Cx_{node}": (c_node, 50 * c_node),
-                                f"Gx_{node}": (0.1 * g_node, 2 * g_node)}, 3),
+                "missing_dynamics",
+                "heat capacity at a node",
+                f"mass at {node}",
+                (spec,),
+                starts=_starts(
+                    {f"Cx_{node}": (c_node, 50 * c_node), f"Gx_{node}": (0.1 * g_node, 2 * g_node)},
+                    3,
+                ),
                 evidence=f"autocorrelated residual of {o}: a heat capacity the network lacks",
                 prior=0.3 * ctx.share.get(o, 0.0),
             )
@@ -772,18 +889,28 @@ def _phase_change(ctx: Context) -> list[Candidate]:
         # tenth of a recording's worth of heat within one kelvin
         kmax = 0.1 * ctx.duration
         spec = _loop_spec(
-            ctx, o, effect="phase_change", form="latent_heat",
+            ctx,
+            o,
+            effect="phase_change",
+            form="latent_heat",
             T_melt=0.5 * (lo + hi),
-            bounds={"T_melt": [lo, hi], "width": [0.3, max(0.5, 0.25 * (hi - lo))],
-                    "kappa": [0.0, kmax]},
+            bounds={
+                "T_melt": [lo, hi],
+                "width": [0.3, max(0.5, 0.25 * (hi - lo))],
+                "kappa": [0.0, kmax],
+            },
         )
         if spec is None:
             continue
         out.append(
             Candidate(
-                "phase_change", "latent heat (Gaussian melting range)", o, (spec,),
-                starts=_starts({f"pc_kappa_{o}": (0.01 * kmax, 0.3 * kmax),
-                                f"pc_T_{o}": (lo, hi)}, 4),
+                "phase_change",
+                "latent heat (Gaussian melting range)",
+                o,
+                (spec,),
+                starts=_starts(
+                    {f"pc_kappa_{o}": (0.01 * kmax, 0.3 * kmax), f"pc_T_{o}": (lo, hi)}, 4
+                ),
                 evidence=f"residual of {o} concentrated in a temperature band (η² up to "
                 f"{band:.2f})",
                 prior=band,
@@ -805,7 +932,11 @@ def _internal(ctx: Context, effect: str) -> list[Candidate]:
     prior = max((f.get("level", 0.0) + f.get("band", 0.0) for f in fo.values()), default=0.0)
     return [
         Candidate(
-            effect, "the plant's own equations", "plant", (), (effect,),
+            effect,
+            "the plant's own equations",
+            "plant",
+            (),
+            (effect,),
             starts=_starts(box, 4),
             evidence=eff.explanation[:160],
             prior=min(1.0, prior),

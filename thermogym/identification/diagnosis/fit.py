@@ -401,11 +401,12 @@ def _network_directions(
 
 
 def _state_directions(model: Model, x_rest: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Unit deviations of the states whose initial values are unknown (scale 1, or 1e-3 of a
-    large value)."""
+    """Unit deviations of the states whose initial values are unknown.
+
+    The unit is 1, or 1e-3 of a large state value.
+    """
     from thermogym.models.augmented import AugmentedModel
 
-    n = x_rest.shape[1]
     scale = np.maximum(1.0, 1e-3 * np.abs(x_rest[0]))
     dirs = np.diag(scale)
     if isinstance(model, AugmentedModel):
@@ -473,11 +474,19 @@ class FitProblem:
         groups = {p.name: p.group for p in self.model.parameters}
         self._is_local = np.array([groups[p] == LOCAL_GROUP for p in self.free], dtype=bool)
         self._gcols = np.array(
-            [self.model.param_index(p) for p, loc in zip(self.free, self._is_local) if not loc],
+            [
+                self.model.param_index(p)
+                for p, loc in zip(self.free, self._is_local, strict=True)
+                if not loc
+            ],
             dtype=np.int64,
         )
         self._lcols = np.array(
-            [self.model.param_index(p) for p, loc in zip(self.free, self._is_local) if loc],
+            [
+                self.model.param_index(p)
+                for p, loc in zip(self.free, self._is_local, strict=True)
+                if loc
+            ],
             dtype=np.int64,
         )
         self.n_global = int(self._gcols.size)
@@ -500,9 +509,13 @@ class FitProblem:
                 b[self.model.param_index(name)] = v
             self._base_e.append(b)
         self._net_dirs: list[NDArray[np.float64] | None] = [None] * ne
-        self._cached = _network_directions(
-            self.model, self.base[None], self.experiments[0].u[:1], self.experiments[0].outputs
-        ) if ne else None
+        self._cached = (
+            _network_directions(
+                self.model, self.base[None], self.experiments[0].u[:1], self.experiments[0].outputs
+            )
+            if ne
+            else None
+        )
         if self._cached is not None and self.x0 == "estimate":
             for i, e in enumerate(self.experiments):
                 self._net_dirs[i] = _network_directions(
@@ -530,8 +543,8 @@ class FitProblem:
     def values(self, z: NDArray[np.float64]) -> dict[str, Any]:
         """Shared parameter values and, per experiment, the local ones."""
         z = np.asarray(z, dtype=float).reshape(-1)
-        names_g = [p for p, loc in zip(self.free, self._is_local) if not loc]
-        names_l = [p for p, loc in zip(self.free, self._is_local) if loc]
+        names_g = [p for p, loc in zip(self.free, self._is_local, strict=True) if not loc]
+        names_l = [p for p, loc in zip(self.free, self._is_local, strict=True) if loc]
         out: dict[str, Any] = dict(zip(names_g, map(float, z[: self.n_global]), strict=True))
         if self.n_local:
             out["local"] = [
@@ -661,7 +674,9 @@ class FitProblem:
             Z[np.arange(g), np.arange(g)] += h[:g]
             for i in range(ne):
                 R = self._weighted(self.simulate(Z, i), i)
-                J[offs[i] : offs[i + 1], :g] = ((R - r0[None, offs[i] : offs[i + 1]]) / h[:g, None]).T
+                J[offs[i] : offs[i + 1], :g] = (
+                    (R - r0[None, offs[i] : offs[i + 1]]) / h[:g, None]
+                ).T
         if self.n_local:
             L = self.n_local
             for i in range(ne):
@@ -676,7 +691,10 @@ class FitProblem:
 
     def residual_series(self, z: NDArray[np.float64]) -> list[NDArray[np.float64]]:
         """Unweighted residuals ``y − ŷ`` (T, n_y) per experiment at one free vector."""
-        return [self.experiments[i].y - self.simulate(z[None], i)[0] for i in range(len(self.experiments))]
+        return [
+            self.experiments[i].y - self.simulate(z[None], i)[0]
+            for i in range(len(self.experiments))
+        ]
 
 
 # ------------------------------------------------------------------ fitting
@@ -758,9 +776,7 @@ def sobol_starts(lower: NDArray[np.float64], upper: NDArray[np.float64], n: int,
     logs = (lo > 0) & (hi / np.where(lo > 0, lo, 1.0) > 10.0)
     out = lo + q * (hi - lo)
     if logs.any():
-        out[:, logs] = np.exp(
-            np.log(lo[logs]) + q[:, logs] * (np.log(hi[logs]) - np.log(lo[logs]))
-        )
+        out[:, logs] = np.exp(np.log(lo[logs]) + q[:, logs] * (np.log(hi[logs]) - np.log(lo[logs])))
     return out
 
 
@@ -830,38 +846,11 @@ def fit_model(
         costs = 0.5 * np.sum(R**2, axis=1)
         order = [int(i) for i in np.argsort(costs, kind="stable")]
         cands = [cands[i] for i in order[: max(1, n_refine)]]
-    h_unit = 1e-6
-
-    class _Stop(Exception):
-        pass
-
     best: dict[str, Any] = {"z": cands[0], "cost": math.inf, "r": None}
     nfev_total, njev_total = 0, 0
     message, success = "", False
     for c0 in cands:
-        cache: dict[bytes, NDArray[np.float64]] = {}
-
-        def fun(s: NDArray[np.float64]) -> NDArray[np.float64]:
-            key = s.tobytes()
-            if key not in cache:
-                if deadline is not None and time.perf_counter() > deadline and cache:
-                    raise _Stop
-                if len(cache) > 4:
-                    cache.clear()
-                z = lo + np.clip(s, 0.0, 1.0) * span
-                r = problem.residuals(z[None])[0]
-                cache[key] = r
-                c = 0.5 * float(r @ r)
-                if c < best["cost"]:
-                    best.update(z=z, cost=c, r=r)
-            return cache[key]
-
-        def jac(s: NDArray[np.float64]) -> NDArray[np.float64]:
-            r0 = fun(s)
-            steps = np.where(s + h_unit <= 1.0, h_unit, -h_unit)
-            z = lo + np.clip(s, 0.0, 1.0) * span
-            return problem.jacobian(z, r0, steps * span) * span[None, :]
-
+        fun, jac = _objective(problem, lo, span, best, deadline)
         try:
             res = box_least_squares(
                 fun, jac, (c0 - lo) / span, max_nfev=max_nfev, xtol=xtol, ftol=ftol
@@ -879,6 +868,45 @@ def fit_model(
     )
 
 
+class _Stop(Exception):
+    """The time limit passed during a refinement."""
+
+
+def _objective(
+    problem: FitProblem,
+    lo: NDArray[np.float64],
+    span: NDArray[np.float64],
+    best: dict[str, Any],
+    deadline: float | None,
+) -> tuple[Any, Any]:
+    """Residuals and Jacobian in unit coordinates, cached, tracking the best point in ``best``."""
+    cache: dict[bytes, NDArray[np.float64]] = {}
+    h_unit = 1e-6
+
+    def fun(s: NDArray[np.float64]) -> NDArray[np.float64]:
+        key = s.tobytes()
+        if key not in cache:
+            if deadline is not None and time.perf_counter() > deadline and cache:
+                raise _Stop
+            if len(cache) > 4:
+                cache.clear()
+            z = lo + np.clip(s, 0.0, 1.0) * span
+            r = problem.residuals(z[None])[0]
+            cache[key] = r
+            c = 0.5 * float(r @ r)
+            if c < best["cost"]:
+                best.update(z=z, cost=c, r=r)
+        return cache[key]
+
+    def jac(s: NDArray[np.float64]) -> NDArray[np.float64]:
+        r0 = fun(s)
+        steps = np.where(s + h_unit <= 1.0, h_unit, -h_unit)
+        z = lo + np.clip(s, 0.0, 1.0) * span
+        return problem.jacobian(z, r0, steps * span) * span[None, :]
+
+    return fun, jac
+
+
 def _outcome(
     problem: FitProblem,
     z: NDArray[np.float64],
@@ -893,7 +921,7 @@ def _outcome(
 ) -> FitOutcome:
     lo, hi = problem.z_lower, problem.z_upper
     g = problem.n_global
-    names_g = tuple(p for p, loc in zip(problem.free, problem._is_local) if not loc)
+    names_g = tuple(p for p, loc in zip(problem.free, problem._is_local, strict=True) if not loc)
     cov, se = None, np.full(g, np.nan)
     if covariance and problem.n_free:
         span = np.where(hi > lo, hi - lo, 1.0)

@@ -70,8 +70,9 @@ def intervals(
     lo = np.array([h.bounds[p][0] for p in free])
     hi = np.array([h.bounds[p][1] for p in free])
     local_vals = h.local_train if len(h.local_train) == len(exps) else None
-    pb = FitProblem(h.model, tuple(free), h.theta, lo, hi, exps, weights, x0,
-                    local_values=local_vals)
+    pb = FitProblem(
+        h.model, tuple(free), h.theta, lo, hi, exps, weights, x0, local_values=local_vals
+    )
     z = pb.start()
     if local_vals:
         names_l = [p for p in free if p in h.local]
@@ -97,7 +98,11 @@ def intervals(
     valid = np.any(J != 0.0, axis=1) | (r != 0.0)
     try:
         _, se, *_ = covariance_from_jacobian(
-            J, r, valid=valid, series=np.concatenate(series), time_index=np.concatenate(tix),
+            J,
+            r,
+            valid=valid,
+            series=np.concatenate(series),
+            time_index=np.concatenate(tix),
             block="auto",
         )
     except Exception:  # too few residuals, a degenerate Jacobian: nothing can be said

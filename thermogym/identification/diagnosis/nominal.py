@@ -283,7 +283,10 @@ def calibration_set(
     keep = np.isfinite(J).all(axis=0)
     J = np.where(np.isfinite(J), J, 0.0)
     idf = identifiability(
-        J, tuple(candidates), span, max_collinearity=MAX_COLLINEARITY,
+        J,
+        tuple(candidates),
+        span,
+        max_collinearity=MAX_COLLINEARITY,
         min_importance=MIN_IMPORTANCE,
     )
     sel = [p for p in idf.selected if keep[list(candidates).index(p)]]

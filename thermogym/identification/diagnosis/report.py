@@ -329,27 +329,75 @@ class DiagnosisReport:
             f"**{self.verdict}**",
             "",
         ]
-        if b.get("effect") not in (None, "none"):
-            parts += [f"## What is missing: `{b['effect']}`", "", b.get("explanation", ""), ""]
-            if b.get("evidence"):
-                parts += [f"*Residual signature:* {b['evidence']}.", ""]
-            if b.get("params"):
+
+        def params_table(params: dict[str, Any]) -> str:
+            return table(
+                ["parameter", "value", "95 % interval", "unit", "meaning"],
+                [
+                    [
+                        k,
+                        _f(v.get("value", math.nan), 4),
+                        (
+                            f"{_f(v.get('low', math.nan), 3)} … {_f(v.get('high', math.nan), 3)}"
+                            if v.get("identifiable", True)
+                            else v.get("note", "not identifiable from these data")
+                        ),
+                        v.get("unit", ""),
+                        v.get("description", ""),
+                    ]
+                    for k, v in params.items()
+                ],
+            )
+
+        if not self.nominal_adequate and self.baseline:
+            parts += [
+                "## Nominal model inadequate",
+                "",
+                f"A plain {self.baseline.get('model', 'ARX')} fitted on the same training data "
+                f"({self.baseline.get('n_params', '?')} parameters) predicts the held-out data "
+                f"better: mean NRMSE {_f(self.baseline.get('validation', {}).get('mean'))} "
+                f"against the nominal model's "
+                f"{_f(self.baseline.get('nominal_validation', {}).get('mean'))}. What follows "
+                "stands on a model that misses more than one effect can explain.",
+                "",
+            ]
+        if self.combination:
+            parts += ["## What is missing", ""]
+            for c in self.combination:
+                eff = c["effect"]
+                share = c.get("share_of_explained_error", math.nan)
                 parts += [
-                    table(
-                        ["parameter", "value", "std. error", "unit", "meaning"],
-                        [
-                            [
-                                k,
-                                _f(v["value"], 4),
-                                _f(v["stderr"], 2),
-                                v["unit"],
-                                v.get("description", ""),
-                            ]
-                            for k, v in b["params"].items()
-                        ],
-                    ),
+                    f"### `{eff}`: {c['form']} ({c['target']}), "
+                    f"{100 * share:.0f} % of the explained error"
+                    if isinstance(share, float) and math.isfinite(share)
+                    else f"### `{eff}`: {c['form']} ({c['target']})",
                     "",
                 ]
+                if c.get("evidence"):
+                    parts += [f"*Residual signature:* {c['evidence']}.", ""]
+                if c.get("params"):
+                    parts += [params_table(c["params"]), ""]
+                base = c.get("baseline") or {}
+                if base:
+                    parts += [
+                        f"Beside it, a generic fix ({base.get('generic_fix', '')}): held-out "
+                        f"ΔIC {_f(base.get('delta_ic'), 4)} against this effect's "
+                        f"{_f(c.get('delta_ic'), 4)}"
+                        + (
+                            "."
+                            if base.get("physics_favoured", True)
+                            else ": **the evidence does not favour a physical explanation**."
+                        ),
+                        "",
+                    ]
+            if b.get("explanation"):
+                parts += [b["explanation"], ""]
+        elif b.get("effect") == "parameter_error":
+            parts += ["## Parameter error", "", b.get("explanation", ""), ""]
+            if self.parameters.get("parameters"):
+                parts += [params_table(self.parameters["parameters"]), ""]
+        elif b.get("effect") not in (None, "none"):
+            parts += [f"## `{b['effect']}`", "", b.get("explanation", ""), ""]
         parts += [
             "## Fit before and after (NRMSE, 1 = perfect)",
             "",

@@ -252,10 +252,23 @@ def diagnose(
     if not (isinstance(max_effects, int) and max_effects >= 1):
         raise ConfigError(f"max_effects is {max_effects!r}; expected a whole number >= 1")
     opts = dict(
-        params=params, model_config=model_config, inputs=inputs, outputs=outputs,
-        candidates=candidates, dt=dt, alpha=alpha, max_lag=max_lag, min_snr=min_snr,
-        min_rel=min_rel, scheme=scheme, max_effects=max_effects, max_candidates=max_candidates,
-        max_nfev=max_nfev, sparse=sparse, time_limit=time_limit, model=model,
+        params=params,
+        model_config=model_config,
+        inputs=inputs,
+        outputs=outputs,
+        candidates=candidates,
+        dt=dt,
+        alpha=alpha,
+        max_lag=max_lag,
+        min_snr=min_snr,
+        min_rel=min_rel,
+        scheme=scheme,
+        max_effects=max_effects,
+        max_candidates=max_candidates,
+        max_nfev=max_nfev,
+        sparse=sparse,
+        time_limit=time_limit,
+        model=model,
     )
     st = _Run(opts, say, time.perf_counter(), tr_list, va_list)
     for name in STAGES:
@@ -271,8 +284,18 @@ def diagnose(
 def _check_inputs(st: _Run) -> None:
     o = st.opts
     model = o["model"]
+    generic = isinstance(model, str) and model.partition(":")[0] in ("foptd", "ss")
+    if generic and o["params"] is not None and not (o["inputs"] and o["outputs"]):
+        # the columns of a given generic FitResult are its own
+        cfg = load_fit(o["params"]).model_config
+        cfg = cfg.get("base_config", cfg) if "base" in cfg else cfg
+        o["inputs"] = o["inputs"] or [*cfg.get("inputs", []), *cfg.get("disturbances", [])]
+        o["outputs"] = o["outputs"] or list(cfg.get("outputs", []))
     nominal, spec = resolve_model(
-        model, st.tr_list[0], model_config=o["model_config"], inputs=o["inputs"],
+        model,
+        st.tr_list[0],
+        model_config=o["model_config"],
+        inputs=o["inputs"],
         outputs=o["outputs"],
     )
     st.generic = isinstance(model, str) and model.partition(":")[0] in ("foptd", "ss")
@@ -293,14 +316,16 @@ def _check_inputs(st: _Run) -> None:
             )
     outs = [x for x in (outputs or nominal.output_names) if x in nominal.output_names]
     if not outputs:
-        outs = [x for x in nominal.output_names if all(x in r.columns for r in st.tr_list + st.va_list)]
+        outs = [
+            x for x in nominal.output_names if all(x in r.columns for r in st.tr_list + st.va_list)
+        ]
     if not outs:
         raise RecordingError(
             f"the recordings hold none of the outputs of model {nominal.name!r} "
             f"({list(nominal.output_names)}); columns are {list(st.tr_list[0].columns)}: are they "
             "recordings of another plant?"
         )
-    if st.generic:
+    if st.generic and o["params"] is None:
         # operating point: the training data's mean exogenous values (model column order)
         u = np.concatenate([r.exogenous_array(nominal) for r in st.tr_list])
         spec.base_config["u_op"] = np.nanmean(u, axis=0).tolist()
@@ -368,12 +393,26 @@ def _stage_nominal(st: _Run) -> None:
     sel_hi = np.array([st.bounds[p][1] for p in sel])
     deadline = None if o["time_limit"] is None else st.t0 + o["time_limit"]
     out = calibrate(
-        model, given, sel, sel_lo, sel_hi, st.tr, st.weights, st.x0,
-        n_random=6 if not st.generic else 4, max_nfev=max(o["max_nfev"], 60) if not st.generic
-        else 150, deadline=deadline,
+        model,
+        given,
+        sel,
+        sel_lo,
+        sel_hi,
+        st.tr,
+        st.weights,
+        st.x0,
+        n_random=6 if not st.generic else 4,
+        max_nfev=max(o["max_nfev"], 60) if not st.generic else 150,
+        deadline=deadline,
     )
-    h = Hypothesis(candidates=(), model=model, free=tuple(sel),
-                   bounds={p: st.bounds[p] for p in sel}, theta=out.theta.copy(), outcome=out)
+    h = Hypothesis(
+        candidates=(),
+        model=model,
+        free=tuple(sel),
+        bounds={p: st.bounds[p] for p in sel},
+        theta=out.theta.copy(),
+        outcome=out,
+    )
     pb = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.tr, st.weights, st.x0)
     h.sims_train = [pb.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.tr))]
     pv = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.va, st.weights, st.x0)
@@ -388,8 +427,12 @@ def _given(params, model, spec, st):
     name = spec.name.split(":")[0]
     if fit.model == model.name or (fit.model == "augmented" and model.name == "augmented"):
         theta = fit.theta(built)[0]
-        return (np.asarray(theta, dtype=float),
-                {p for p in fit.fixed if p in built.param_names}, built, _spec_of(built, spec))
+        return (
+            np.asarray(theta, dtype=float),
+            {p for p in fit.fixed if p in built.param_names},
+            built,
+            _spec_of(built, spec),
+        )
     if name in ("ss", "foptd") and fit.model == name:
         # a FitResult of the generic model itself: wrapped with the diagnosis' output offsets
         new_spec = NominalSpec(name, dict(fit.model_config), list(spec.augmentations), spec.name)
@@ -463,12 +506,19 @@ def _stage_detection(st: _Run) -> None:
     tests_tr = _tests(st.outs, st.tr, h.sims_train, o["alpha"], o["max_lag"], exo)
     tests_va = _tests(st.outs, st.va, h.sims_val, o["alpha"], o["max_lag"], exo)
     alpha_adj = o["alpha"] / (len(st.outs) * (1 + len(exo)))
-    sig_tr = {x: _significant(t, alpha_adj, o["min_snr"], o["min_rel"]) for x, t in tests_tr.items()}
-    sig_va = {x: _significant(t, alpha_adj, o["min_snr"], o["min_rel"]) for x, t in tests_va.items()}
+    sig_tr = {
+        x: _significant(t, alpha_adj, o["min_snr"], o["min_rel"]) for x, t in tests_tr.items()
+    }
+    sig_va = {
+        x: _significant(t, alpha_adj, o["min_snr"], o["min_rel"]) for x, t in tests_va.items()
+    }
     st.detected = any(sig_tr.values()) or any(sig_va.values())
     st.train_material = any(sig_tr.values())
     st.tests = {
-        "train": tests_tr, "validation": tests_va, "sig_tr": sig_tr, "sig_va": sig_va,
+        "train": tests_tr,
+        "validation": tests_va,
+        "sig_tr": sig_tr,
+        "sig_va": sig_va,
         "alpha_adj": alpha_adj,
     }
     use = o["scheme"]
@@ -477,8 +527,9 @@ def _stage_detection(st: _Run) -> None:
     if use == "crossfit" and len(st.va) < 2:
         raise ConfigError("scheme 'crossfit' needs at least two validation recordings")
     deadline = None if o["time_limit"] is None else st.t0 + o["time_limit"]
-    st.data = Data(st.tr, st.va, st.weights, st.x0, o["alpha"], use, o["max_nfev"], deadline,
-                   st.say)
+    st.data = Data(
+        st.tr, st.va, st.weights, st.x0, o["alpha"], use, o["max_nfev"], deadline, st.say
+    )
     # the nominal's own scores (the reference of every comparison)
     score_self(h, st.data)
     if use == "crossfit":
@@ -489,8 +540,11 @@ def _stage_detection(st: _Run) -> None:
             score_self(h, st.data)
     st.say(
         "mismatch: "
-        + (", ".join(x for x in st.outs if sig_tr[x] or sig_va[x]) if st.detected
-           else "none significant")
+        + (
+            ", ".join(x for x in st.outs if sig_tr[x] or sig_va[x])
+            if st.detected
+            else "none significant"
+        )
     )
 
 
@@ -519,14 +573,21 @@ def _stage_location(st: _Run) -> None:
         [e.time for e in all_exps],
     )
     recs_loc = [
-        {"name": e.name, "role": r, "time": e.time, "dt": e.dt, "residual": e.y - s,
-         "measured": e.y}
+        {
+            "name": e.name,
+            "role": r,
+            "time": e.time,
+            "dt": e.dt,
+            "residual": e.y - s,
+            "measured": e.y,
+        }
         for e, r, s in zip(all_exps, roles, all_sims, strict=True)
     ]
     st.located = locate(st.outs, recs_loc, st.regs, sigma, scale)
     floor = sum(
-        float(st.weights[j] ** 2) * sigma[o] ** 2 * sum(int(np.isfinite(e.y[:, j]).sum())
-                                                         for e in st.va)
+        float(st.weights[j] ** 2)
+        * sigma[o] ** 2
+        * sum(int(np.isfinite(e.y[:, j]).sum()) for e in st.va)
         for j, o in enumerate(st.outs)
         if math.isfinite(sigma[o])
     )
@@ -535,11 +596,15 @@ def _stage_location(st: _Run) -> None:
 
 # ------------------------------------------------------------------ stage: parameters
 def _stage_parameters(st: _Run) -> None:
-    """Parameter or physics: were the given parameters off?"""
+    """Parameter or physics: whether the given parameters were off."""
     h = st.nominal
     if st.generic or not st.calibrated:
-        st.parameters = {"tested": False, "reason": "a generic model has no given parameters"
-                         if st.generic else "no identifiable parameter"}
+        st.parameters = {
+            "tested": False,
+            "reason": "a generic model has no given parameters"
+            if st.generic
+            else "no identifiable parameter",
+        }
         return
     g = Hypothesis(candidates=(), model=st.model, theta=st.given.copy())
     pb = FitProblem(st.model, (), st.given, np.zeros(0), np.zeros(0), st.tr, st.weights, st.x0)
@@ -552,15 +617,27 @@ def _stage_parameters(st: _Run) -> None:
     chi2, n = whitened_chi2(residuals_of(g, st.data)[1], residuals_of(h, st.data)[1])
     d = delta_ic(chi2, len(st.calibrated), n)
     better = bool(d < 0 and h.wsse_val < g.wsse_val)
-    iv = intervals(h, st.calibrated, st.tr, st.weights, st.x0,
-                   experiment={p: CATALOGUE["parameter_error"].experiment(p) for p in st.calibrated})
+    iv = intervals(
+        h,
+        st.calibrated,
+        st.tr,
+        st.weights,
+        st.x0,
+        experiment={p: CATALOGUE["parameter_error"].experiment(p) for p in st.calibrated},
+    )
     moved = {}
     for p in st.calibrated:
         v0 = float(st.given[st.model.param_index(p)])
         v1 = float(h.theta[st.model.param_index(p)])
         spec_p = st.model.parameters[st.model.param_index(p)]
-        row = {"given": v0, "calibrated": v1, "value": v1, "unit": spec_p.unit,
-               "description": spec_p.description, **iv.get(p, {})}
+        row = {
+            "given": v0,
+            "calibrated": v1,
+            "value": v1,
+            "unit": spec_p.unit,
+            "description": spec_p.description,
+            **iv.get(p, {}),
+        }
         lo_, hi_ = row.get("low", math.nan), row.get("high", math.nan)
         row["moved"] = bool(math.isfinite(lo_) and not (lo_ <= v0 <= hi_))
         moved[p] = row
@@ -669,9 +746,7 @@ def _sparse(st: _Run, sel: Selection) -> None:
     for c in cands:
         h = fit_hypothesis(st.spec, st.nominal, c, st.data, st.nominal)
         sel.first_round.append(h)
-        if passes(h, st.nominal, len(cands)) and (
-            best is None or h.delta_ic < best.delta_ic
-        ):
+        if passes(h, st.nominal, len(cands)) and (best is None or h.delta_ic < best.delta_ic):
             best = h
     if best is not None:
         sel.steps.append(best)
@@ -696,9 +771,7 @@ def _experiments(final: Hypothesis, names: Sequence[str], st: _Run) -> dict[str,
     out: dict[str, str] = {}
     owner: dict[str, str] = {}
     for c in final.candidates:
-        sub = st.spec.build(
-            [x for x in final.candidates if x is not c]
-        )
+        sub = st.spec.build([x for x in final.candidates if x is not c])
         for p in final.model.param_names:
             if p not in sub.param_names:
                 owner[p] = c.effect
@@ -737,11 +810,18 @@ def _stage_report(st: _Run) -> DiagnosisReport:
         data_entry(r, "validation") for r in st.va_list
     ]
     nominal_fit = _build_fit(
-        st.model, h, method=f"diagnosis nominal ({st.method})",
-        settings={"x0": st.x0, "weights": dict(zip(outs, st.weights.tolist(), strict=True)),
-                  "dt": o["dt"], "calibrated": list(st.calibrated)},
+        st.model,
+        h,
+        method=f"diagnosis nominal ({st.method})",
+        settings={
+            "x0": st.x0,
+            "weights": dict(zip(outs, st.weights.tolist(), strict=True)),
+            "dt": o["dt"],
+            "calibrated": list(st.calibrated),
+        },
         metrics={"train": {"nrmse": fit_before_tr}, "validation": {"nrmse": fit_before_va}},
-        data=data, notes="nominal model of thermogym diagnosis",
+        data=data,
+        notes="nominal model of thermogym diagnosis",
     )
     tests_tr, tests_va = st.tests["train"], st.tests["validation"]
     alpha_adj = st.tests["alpha_adj"]
@@ -772,10 +852,14 @@ def _stage_report(st: _Run) -> DiagnosisReport:
         mismatch_detected=named != ["none"],
         alpha=o["alpha"],
         detection={
-            "train": {x: {**t.to_dict(alpha_adj), "significant": st.tests["sig_tr"][x]}
-                      for x, t in tests_tr.items()},
-            "validation": {x: {**t.to_dict(alpha_adj), "significant": st.tests["sig_va"][x]}
-                           for x, t in tests_va.items()},
+            "train": {
+                x: {**t.to_dict(alpha_adj), "significant": st.tests["sig_tr"][x]}
+                for x, t in tests_tr.items()
+            },
+            "validation": {
+                x: {**t.to_dict(alpha_adj), "significant": st.tests["sig_va"][x]}
+                for x, t in tests_va.items()
+            },
             "alpha_per_test": alpha_adj,
             "materiality": {"min_snr": o["min_snr"], "min_rel": o["min_rel"]},
             "residual_structure": st.detected,
@@ -794,8 +878,12 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     report.selection = sel.summary()
     report.series = [
         {"name": e.name, "role": r, "time": e.time, "measured": e.y, "nominal": s, "u": e.u}
-        for e, r, s in zip([*st.tr, *st.va], ["train"] * len(st.tr) + ["validation"] * len(st.va),
-                           [*h.sims_train, *h.sims_val], strict=True)
+        for e, r, s in zip(
+            [*st.tr, *st.va],
+            ["train"] * len(st.tr) + ["validation"] * len(st.va),
+            [*h.sims_train, *h.sims_val],
+            strict=True,
+        )
     ]
     report.regime_values = st.regs
     report.tests_before = {"train": tests_tr, "validation": tests_va}
@@ -811,29 +899,36 @@ def _stage_report(st: _Run) -> DiagnosisReport:
         sh = shares(h, steps)
         for s, share in zip(steps, sh, strict=True):
             c = s.last
-            report.combination.append({
-                "effect": c.effect,
-                "form": c.form,
-                "target": c.target,
-                "evidence": c.evidence,
-                "share_of_explained_error": share,
-                "delta_ic": s.delta_ic,
-                "params": final.params_table(
-                    [p for p in final.extra if p in s.extra and p not in (steps[0].extra
-                                                                            if s is not steps[0]
-                                                                            else ())]
-                    if s is not steps[0] else list(s.extra)
-                ),
-                "baseline": s.baseline,
-                "notes": s.notes,
-            })
+            report.combination.append(
+                {
+                    "effect": c.effect,
+                    "form": c.form,
+                    "target": c.target,
+                    "evidence": c.evidence,
+                    "share_of_explained_error": share,
+                    "delta_ic": s.delta_ic,
+                    "params": final.params_table(
+                        [
+                            p
+                            for p in final.extra
+                            if p in s.extra
+                            and p not in (steps[0].extra if s is not steps[0] else ())
+                        ]
+                        if s is not steps[0]
+                        else list(s.extra)
+                    ),
+                    "baseline": s.baseline,
+                    "notes": s.notes,
+                }
+            )
         first = steps[0]
         report.best = {
             "effect": first.last.effect,
             "form": first.last.form,
             "target": first.last.target,
             "explanation": CATALOGUE[first.last.effect].explanation
-            if first.last.effect in CATALOGUE else "",
+            if first.last.effect in CATALOGUE
+            else "",
             "evidence": first.last.evidence,
             "params": final.params_table([p for p in final.extra]),
             "fit_before": fit_before_tr,
@@ -896,15 +991,29 @@ def _finalise(report: DiagnosisReport, final: Hypothesis, st: _Run, data: list) 
                 d = float(theta[model.param_index(pname)])
                 a["history"] = math.ceil(d / dtm) + 2
         base = model.base if not st.spec.registered else cfg["base"]
-        model2 = AugmentedModel(base, None if not st.spec.registered else cfg["base_config"],
-                                cfg["augmentations"])
-        theta = np.array([theta[model.param_index(p)] if p in model.param_names else
-                          model2.nominal[model2.param_index(p)] for p in model2.param_names])
+        model2 = AugmentedModel(
+            base, None if not st.spec.registered else cfg["base_config"], cfg["augmentations"]
+        )
+        theta = np.array(
+            [
+                theta[model.param_index(p)]
+                if p in model.param_names
+                else model2.nominal[model2.param_index(p)]
+                for p in model2.param_names
+            ]
+        )
         model = model2
-    h2 = Hypothesis(candidates=final.candidates, model=model, free=final.free,
-                    bounds=final.bounds, theta=theta, outcome=final.outcome)
+    h2 = Hypothesis(
+        candidates=final.candidates,
+        model=model,
+        free=final.free,
+        bounds=final.bounds,
+        theta=theta,
+        outcome=final.outcome,
+    )
     report.augmented_fit = _build_fit(
-        model, h2,
+        model,
+        h2,
         method="thermogym diagnosis: " + " + ".join(c.effect for c in final.candidates),
         settings={
             "named_effects": report.named_effects,
@@ -915,11 +1024,14 @@ def _finalise(report: DiagnosisReport, final: Hypothesis, st: _Run, data: list) 
             "nominal_model": st.spec.name,
             "local_parameters_neutral": list(final.local),
         },
-        metrics={"train": {"nrmse": final.fit_after},
-                 "validation": {"nrmse": final.validation_after}},
+        metrics={
+            "train": {"nrmse": final.fit_after},
+            "validation": {"nrmse": final.validation_after},
+        },
         data=data,
-        notes="; ".join(CATALOGUE[c.effect].explanation[:80] for c in final.candidates
-                        if c.effect in CATALOGUE),
+        notes="; ".join(
+            CATALOGUE[c.effect].explanation[:80] for c in final.candidates if c.effect in CATALOGUE
+        ),
     )
 
 
@@ -938,8 +1050,7 @@ def _build_fit(
     out = h.outcome
     if out is not None:
         stderr.update({p: v for p, v in out.stderr.items() if p in stderr})
-        if out.covariance is not None and all(p in model.param_names
-                                              for p in out.covariance_names):
+        if out.covariance is not None and all(p in model.param_names for p in out.covariance_names):
             cov = np.asarray(out.covariance).tolist()
             cov_names = list(out.covariance_names)
     b = {p.name: [p.lower, p.upper] for p in model.parameters}

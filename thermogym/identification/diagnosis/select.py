@@ -248,8 +248,11 @@ def fit_hypothesis(
         h.model = model
         h.free = tuple(free)
         h.bounds = {p: bounds[p] for p in free}
-        h.extra = tuple(p for p in model.param_names if p not in nominal.model.param_names
-                        and groups[p] != LOCAL_GROUP)
+        h.extra = tuple(
+            p
+            for p in model.param_names
+            if p not in nominal.model.param_names and groups[p] != LOCAL_GROUP
+        )
         h.local = tuple(local)
         h.k_global = len(h.extra)
         h.k_local = len(local)
@@ -258,8 +261,12 @@ def fit_hypothesis(
         else:
             pb = _problem(fit_with, free, base, bounds, data.train, data)
             out = fit_model(
-                pb, starts=starts, n_refine=2 if starts else 1, max_nfev=nfev,
-                deadline=data.deadline, covariance=not screen,
+                pb,
+                starts=starts,
+                n_refine=2 if starts else 1,
+                max_nfev=nfev,
+                deadline=data.deadline,
+                covariance=not screen,
             )
             h.outcome = out
             h.theta = out.theta.copy()
@@ -283,8 +290,9 @@ def _fit_crossfit(h, fit_with, base, free, bounds, starts, data, nfev) -> None:
     for k in range(len(data.val)):
         fit_set = [*data.train, *[e for i, e in enumerate(data.val) if i != k]]
         pb = _problem(fit_with, free, base, bounds, fit_set, data)
-        out = fit_model(pb, starts=starts, n_refine=1, max_nfev=nfev, deadline=data.deadline,
-                        covariance=False)
+        out = fit_model(
+            pb, starts=starts, n_refine=1, max_nfev=nfev, deadline=data.deadline, covariance=False
+        )
         s, v = held_out(h.model, out.theta, [data.val[k]], data, h.local)
         sims_val += s
         local_val += v

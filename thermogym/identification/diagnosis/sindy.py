@@ -22,9 +22,7 @@ physical reading.
 
 from __future__ import annotations
 
-import math
 import warnings
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray

@@ -32,11 +32,10 @@ far less than the SVD or LSMR iterations scipy's trust regions run on the full
 
 from __future__ import annotations
 
-from typing import Any
-
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
