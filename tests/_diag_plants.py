@@ -98,7 +98,8 @@ def node_truth(
     ``effects`` keys: ``radiation`` (emissivity·area [m²]), ``convection`` (coefficient
     [W/K^1.25]), ``delay`` (input dead time [s]), ``power`` (exponent of the command),
     ``mass`` (``(C2, G2)``: a mass coupled to the block), ``ramp`` (relative change of G
-    per hour), ``disturbance`` (amplitude [W], period [s] of a heat flow), ``offset``,
+    per hour), ``disturbance`` (amplitude [W], period [s] of a heat flow), ``forced``
+    (extra conductance [W/K] at full command, growing as the command^0.8: a fan), ``offset``,
     ``lag`` (sensor time constant [s]), ``drift`` (K/h).
     """
     e = dict(effects or {})
@@ -121,6 +122,8 @@ def node_truth(
         loss = g * (T - ta_k)
         if e.get("radiation"):
             loss += e["radiation"] * SIGMA_SB * ((T + 273.15) ** 4 - (ta_k + 273.15) ** 4)
+        if e.get("forced"):
+            loss += e["forced"] * (max(u_now[0], 0.0) / 100.0) ** 0.8 * (T - ta_k)
         if e.get("convection"):
             d = T - ta_k
             loss += e["convection"] * np.sign(d) * abs(d) ** 1.25
@@ -133,6 +136,7 @@ def node_truth(
         dTs = (T - Ts) / tau_s if tau_s else 0.0  # the sensor's own heat capacity
         return np.array([dT, dT2, dTs])
 
+    u_now = [0.0]
     T = np.empty(n)
     start = T0 if T0 is not None else ta[0]
     x = np.array([start, start, start])
@@ -140,6 +144,7 @@ def node_truth(
     for k in range(n):
         T[k] = x[2] if tau_s else x[0]
         q = P * cmd[k] / 100.0
+        u_now[0] = u[k]
         for s in range(sub):
             t = k * dt + s * h
             k1 = rhs(t, x, q, ta[k])
@@ -167,11 +172,13 @@ def node_recordings(
     coloured: float = 0.08,
     tau_noise: float = 300.0,
     hold: tuple[float, float] = (120.0, 900.0),
+    train_levels: tuple[float, ...] | None = None,
 ) -> tuple[list[Recording], list[Recording]]:
     """Training and held-out recordings of the true block: random command levels.
 
     Each recording starts after 30 min of unrecorded operation (not at rest)
-    and carries white plus coloured sensor noise.
+    and carries white plus coloured sensor noise. ``train_levels``: the
+    training recordings cycle through these command levels only.
     """
     rng = np.random.default_rng(seed)
     recs = []
@@ -181,7 +188,11 @@ def node_recordings(
         levels, k = [], 0
         while k < warm + n:
             m = int(rng.uniform(*hold) / dt)
-            levels.append(np.full(m, rng.uniform(0.0, 100.0)))
+            if train_levels is not None and r < n_train:
+                v = float(train_levels[len(levels) % len(train_levels)])
+            else:
+                v = rng.uniform(0.0, 100.0)
+            levels.append(np.full(m, v))
             k += m
         u = np.concatenate(levels)[: warm + n]
         t = np.arange(warm + n) * dt

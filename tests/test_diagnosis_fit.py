@@ -36,7 +36,7 @@ def test_box_least_squares_solves_a_bounded_problem_and_stops_at_the_bound():
 
 
 def test_identification_solver_option_normal_is_the_same_solver():
-    from thermogym.identification.optimizers.local import LEAST_SQUARES_OPTIONS, _SOLVERS
+    from thermogym.identification.optimizers.local import _SOLVERS, LEAST_SQUARES_OPTIONS
 
     assert "normal" in _SOLVERS and LEAST_SQUARES_OPTIONS["solver"] == "trf"
 
@@ -100,5 +100,5 @@ def test_whitened_chi2_ignores_coloured_noise_and_sees_a_real_difference():
     err = 0.1 * ((np.arange(n) // 300) % 2)[:, None]
     chi_real, _ = whitened_chi2([noise + err], [noise])
     assert delta_ic(chi_null, 1, m) > 0 > delta_ic(chi_real, 1, m)
-    a, s2 = ar_filter([noise[:, 0]])
+    a, _ = ar_filter([noise[:, 0]])
     assert a.size >= 1 and a[0] == pytest.approx(0.98, abs=0.02)

@@ -201,6 +201,10 @@ class _Aug:
         """The form in words (reports)."""
         return self.form or "as written"
 
+    def course(self, p: NDArray[np.float64], t: NDArray[np.float64]) -> NDArray[np.float64] | None:
+        """The per-recording course at times ``t`` (B, T) since the start, or None."""
+        return None
+
     def _exo(self, key: str, default: str | None = None) -> int | None:
         name = self.spec.get(key, default)
         if not name:
@@ -399,6 +403,9 @@ class _DisturbanceForm(_Aug, _CourseMixin):
                 f"unmeasured_disturbance form {self.form!r}; forms are periodic, steps, smooth"
             )
 
+    def course(self, p, t):
+        return self._value(t, p)
+
     def _value(self, t, p):
         if self.form == "periodic":
             w = 2.0 * np.pi * t / p[:, 0:1]
@@ -442,6 +449,9 @@ class _Supply(_Aug, _CourseMixin):
             )
             for i in range(self.n_knots)
         ]
+
+    def course(self, p, t):
+        return _course(p, t, self.span, self.smooth)
 
     def apply(self, arr, u, p, s0, dt):
         t = s0[:, 0:1] + dt * np.arange(arr.shape[1])[None, :]
@@ -862,6 +872,9 @@ class _VaryingLoss(_Loop, _CourseMixin):
 
     def init(self, p, u0, y0):
         return np.column_stack([y0[:, self.col], np.zeros(p.shape[0])])
+
+    def course(self, p, t):
+        return None if self.form == "ramp" else self._factor(t, p)
 
     def _factor(self, t, p):
         if self.form == "ramp":

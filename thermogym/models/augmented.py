@@ -281,6 +281,24 @@ class AugmentedModel(Model):
         """Parameters fitted per recording (group ``"local"``)."""
         return tuple(p.name for p in self.parameters if p.group == LOCAL)
 
+    def courses(
+        self, theta: NDArray[np.float64], n: int, dt: float
+    ) -> list[tuple[str, str, NDArray[np.float64]]]:
+        """Per-recording courses (a disturbance, a supply's wander) over ``n`` samples.
+
+        Returns
+        -------
+        list of (effect, signal, ndarray (B, n))
+        """
+        th = np.atleast_2d(theta)
+        t = dt * np.arange(n)[None, :]
+        out = []
+        for a, (ps, _) in zip(self._augs, self._slices, strict=True):
+            c = a.course(th[:, ps], np.repeat(t, th.shape[0], axis=0))
+            if c is not None:
+                out.append((a.effect, a.signal, np.asarray(c, dtype=float)))
+        return out
+
     def config(self) -> dict[str, Any]:
         """Constructor arguments (stored in FitResults)."""
         return {
