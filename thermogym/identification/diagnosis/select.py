@@ -528,11 +528,11 @@ def course_independence(h: Hypothesis, data: Data) -> tuple[float, str]:
         if e.n < 2 * nb:
             continue
         edges = np.linspace(0, e.n, nb + 1).astype(int)
-        db = np.array([d[a:b].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)])
+        db = np.add.reduceat(d, edges[:-1]) / np.diff(edges)
         ds += list(db[1:] - db[1:].mean())
         for name in ins:
             u = e.u[:, exo.index(name)]
-            ub = np.array([u[a:b].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)])
+            ub = np.add.reduceat(u, edges[:-1]) / np.diff(edges)
             for lag in (0, 1):
                 x = ub[1 - lag : nb - lag]
                 xs.setdefault((name, lag), []).extend(list(x - x.mean()))
