@@ -30,7 +30,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         required=True,
         help="nominal model: a thermogym plant, 'foptd' or 'ss:ORDER'",
     )
-    p.add_argument("--params", help="FitResult JSON of the nominal model (fitted when omitted)")
+    p.add_argument(
+        "--params",
+        help="FitResult JSON of the nominal model: its parameters are the given ones (the "
+        "identifiable ones are re-calibrated); for ss:N or foptd a FitResult of that model "
+        "(its operating point and columns are used)",
+    )
     p.add_argument(
         "--train",
         nargs="+",
@@ -81,6 +86,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--time-limit",
         type=positive("s", "a time limit"),
         help="start no hypothesis after this many seconds",
+    )
+    p.add_argument(
+        "--max-effects",
+        type=int,
+        default=3,
+        help="most effects a combination holds (default 3)",
     )
     p.add_argument("--no-sparse", action="store_true", help="skip the sparse-regression fallback")
     p.add_argument("--quiet", action="store_true", help="print only the verdict")
@@ -138,6 +149,7 @@ def run(args: argparse.Namespace) -> int:
         alpha=args.alpha,
         scheme=args.scheme,
         time_limit=args.time_limit,
+        max_effects=args.max_effects,
         sparse=not args.no_sparse,
         progress=say,
     )
@@ -151,6 +163,7 @@ def run(args: argparse.Namespace) -> int:
         if args.augmented_fit and rep.augmented_fit is not None:
             rep.augmented_fit.save(plan.path("--augmented-fit"))
     print(rep.verdict)
+    print(f"named:  {', '.join(rep.named_effects)}")
     print(f"report: {args.out}")
     if args.html:
         print(f"html:   {args.html}")

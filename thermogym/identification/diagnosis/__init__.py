@@ -21,7 +21,8 @@ When a simulation and recordings differ, :func:`diagnose`
 ['backlash', 'input_dependent_heat_transfer', 'input_nonlinearity']
 """
 
-from thermogym.identification.diagnosis.effects import CATALOGUE, EffectEntry
+from thermogym.identification.diagnosis.effects import CATALOGUE, Effect, EffectEntry
+from thermogym.identification.diagnosis.hypothesis import Candidate, Hypothesis
 from thermogym.identification.diagnosis.report import DiagnosisReport
 from thermogym.identification.diagnosis.residuals import (
     ResidualTest,
@@ -38,8 +39,11 @@ register()
 __all__ = [
     "CATALOGUE",
     "AugmentedModel",
+    "Candidate",
     "DiagnosisReport",
+    "Effect",
     "EffectEntry",
+    "Hypothesis",
     "ResidualTest",
     "autocorrelation",
     "cross_correlation",

@@ -1,59 +1,56 @@
-"""Fitting for diagnosis: experiments, initial states, the nominal model, least squares.
+"""Fitting for diagnosis: experiments, initial states, per-recording parameters, least squares.
 
-Every model the diagnosis fits — the nominal model and each augmented
-candidate — goes through :func:`fit_model`: bounded nonlinear least squares
-(a projected Levenberg-Marquardt, see :func:`_projected_lm`) on the
-simulation error of every fitted output in every training recording, with
+Every model the diagnosis fits — the nominal model and each hypothesis —
+goes through :func:`fit_model`: bounded nonlinear least squares of the
+simulation error of every fitted output in every recording, solved by
+:func:`thermogym.identification.optimizers.local.box_least_squares` (the
+solver the identification optimisers share), with
 
 * outputs weighted by the inverse of their spread in the training data (each
-  output counts like its NRMSE, eq 5 of ``001_6d13a2cd04f5de5e.txt``), so a
-  stroke in mm and a power in W are comparable;
+  output counts like its NRMSE, eq 5 of ``001_6d13a2cd04f5de5e.txt``);
 * parameters scaled to their bounds (``s = (θ − lower)/(upper − lower)``);
-* Jacobians by forward differences, all columns simulated in **one batched
-  call** of the model (the batch dimension of :class:`thermogym.models.base.Model`);
+* Jacobians by forward differences, the perturbed sets simulated as **one
+  batched call** of the model (the batch dimension of
+  :class:`thermogym.models.base.Model`);
+* several starts drawn inside the bounds (a scrambled Sobol' sequence, seeded:
+  deterministic), all evaluated in one batch, the best refined;
 * standard errors from the Jacobian (sandwich form of
   :func:`thermogym.identification.uncertainty.covariance_from_jacobian`).
 
-This is the one place a fit happens, so the identification coordinator of
-``thermogym.identification`` (``identify(problem, method=...)``) can replace
-it later without touching the rest of the diagnosis.
+**Per-recording parameters.** A parameter in the group ``"local"`` (an
+unmeasured disturbance's course, a random walk of a coefficient) is fitted
+separately in every recording: the free vector holds the shared parameters,
+then one block per recording. Its Jacobian columns touch one recording only
+and are computed on that recording alone.
 
-The *nominal model* of a thermogym plant for diagnosis (:data:`NOMINAL_SPECS`)
-is the structure an engineer would fit before suspecting missing physics:
+**Initial states.** Recordings rarely start at rest (paper 000: the drive
+"had not fully cooled down"; a building log starts mid-operation). With
+``x0="estimate"`` (the default) each recording's initial state is a nuisance
+estimated by linear least squares from the free responses of the model to
+unit deviations of its states (MATLAB ``compare``'s ``x0 = 'estimate'``)::
 
-* ``axt211`` — the paper-002 grey-box model with every parameter free except
-  the stroke (4.5 mm, a specification) and the backlash, which is held at
-  zero as when the paper fits the thermal and mechanical sub-models; a play in
-  the linkage is then a hypothesis to test, not a nominal parameter;
-* ``strut`` — the 19-node network with the five ratio parameters of paper
-  000's appendix in their uncertainty ranges (losses 0.3-3, convection
-  0.8-1.3): the physical estimates bound what the ratios may absorb;
-* ``spindle`` — the white-box network with the parameters a drawing does not
-  fix free within their bounds: the bearing and belt losses, the housing
-  capacities, the bearing-seat and inner-outer housing conductances and the
-  housing's conductance to the air (shaft, bearing and end capacities and the
-  axial conductances follow from geometry and stay at their estimates).
+    ŷ(θ, x_r + Φ δ) ≈ ŷ(θ, x_r) + Ψ(θ) δ,    δ = argmin ‖W (y − ŷ − Ψ δ)‖²
 
-Initial states: recordings rarely start exactly at rest (paper 000: the drive
-"had not fully cooled down"). With ``x0="estimate"`` (the default) each
-measured temperature state may start off its rest value: the deviations are a
-nuisance, estimated by weighted least squares on the free responses over the
-first 5 % of each recording (so a warm start is absorbed but a persistent
-error is not); in a thermal network a deviation of a measured node spreads to
-the unmeasured ones as the steady temperatures it imposes without heat input
-(a harmonic interpolation over the conductances, eq 13 of paper 000 with zero
-sources). ``x0="measured"`` starts exactly at the first measured values,
-``x0="rest"`` at the model's rest state, and ``x0="initial"`` (generic
-FOPTD / state-space models, paper 000 section 4.1) shifts each output to start
-at its first measured value: the model predicts deviations from the operating
-point the recording starts at.
+with ``x_r`` the model's own initial state (usually rest or steady at the
+first input). The free responses ``Ψ`` are simulated with the parameter set
+itself (in the same batch), so they follow the fit; only a thermal network,
+whose deviations spread over many nodes, takes them once at the problem's
+start values, with its measured nodes' deviations spread to the unmeasured
+ones as the steady field they impose (a harmonic interpolation over the
+conductances, eq 13 of paper 000 with zero sources). The least squares uses
+the samples over which the free responses carry 99.9 % of their energy: where
+the initial state is no longer visible, the samples would only let the free
+responses absorb model error. Directions the data cannot see are dropped
+(truncated SVD). ``x0="rest"`` takes the model's own initial state and
+``x0="measured"`` starts the measured temperature states at their first
+samples.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -61,38 +58,33 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import IdentificationError, RecordingError, ShapeError
+from thermogym.identification.optimizers.local import box_least_squares
 from thermogym.models.base import Model
 from thermogym.recording import Recording
 
 __all__ = [
-    "NOMINAL_SPECS",
+    "LOCAL_GROUP",
     "Experiment",
     "FitOutcome",
     "FitProblem",
     "decimate",
     "fit_model",
     "initial_states",
+    "output_weights",
     "prepare_experiments",
+    "simulate_all",
+    "sobol_starts",
 ]
 
-#: Diagnosis nominal model of each thermogym plant: fixed values and free parameters.
-NOMINAL_SPECS: dict[str, dict[str, Any]] = {
-    "axt211": {"fixed": {"c_backlash": 0.0, "x_max": 4.5}, "x0": "estimate"},
-    "strut": {
-        "free": ["r_motor", "r_bearing", "r_nut", "r_spindle_air", "r_tube_air"],
-        "x0": "estimate",
-    },
-    "spindle": {
-        "free": ["q_rear", "q_front", "q_belt", "C_inner", "C_outer", "G_bh", "G_io", "g_outer"],
-        "x0": "estimate",
-    },
-    "room": {"x0": "estimate"},
-    "tclab": {"x0": "estimate"},
-}
+#: Parameter group of per-recording parameters (fitted separately in every recording).
+LOCAL_GROUP = "local"
 
 _TEMPERATURE_UNITS = ("°C", "K", "degC")
-#: Share of a recording's first samples that decides its initial state (policy "estimate").
-_X0_WINDOW = 0.05
+#: Share of the free responses' energy that decides the initial-state window.
+_X0_ENERGY = 0.999
+#: Relative singular value below which an initial-state direction counts as unobservable.
+_X0_RCOND = 1e-7
+_X0_POLICIES = ("rest", "measured", "estimate")
 
 
 # ------------------------------------------------------------------ experiments
@@ -221,21 +213,9 @@ def _uniform(rec: Recording, notes: list[str]) -> Recording:
             f"recording {rec.experiment_id!r} has gaps (largest step {float(d.max())!r} s, median "
             f"{step!r} s); prepare it first (thermogym.identification.prepare)"
         )
-    try:
-        from thermogym.identification.prepare import resample
+    from thermogym.identification.prepare import resample
 
-        out, _ = resample(rec, step, t_start=float(rec.time[0]))
-    except ImportError:  # pragma: no cover - the preparation module is part of the package
-        t = rec.time[0] + step * np.arange(math.floor(rec.duration / step) + 1)
-        out = Recording(
-            t,
-            {c: np.interp(t, rec.time, rec[c]) for c in rec.columns},
-            units=dict(rec.units),
-            roles=dict(rec.roles),
-            experiment_id=rec.experiment_id,
-            source=rec.source,
-            meta=rec.meta,
-        )
+    out, _ = resample(rec, step, t_start=float(rec.time[0]))
     notes.append(
         f"{rec.experiment_id}: steps {float(d.min()):.4g}-{float(d.max()):.4g} s resampled onto "
         f"a uniform {step:.4g} s grid (linear interpolation)"
@@ -250,7 +230,6 @@ def prepare_experiments(
     *,
     dt: float | None = None,
     what: str = "training",
-    deviation: Sequence[str] = (),
 ) -> list[Experiment]:
     """Check recordings against a model and bring them onto uniform grids.
 
@@ -264,9 +243,6 @@ def prepare_experiments(
         Decimate to this period [s] (a whole multiple of the recording's).
     what : str
         ``"training"`` or ``"validation"`` (for messages).
-    deviation : sequence of str
-        Exogenous columns given to the model as deviations from their first
-        value (disturbances of a generic linear model: its operating point).
 
     Returns
     -------
@@ -293,9 +269,6 @@ def prepare_experiments(
             r = decimate(r, float(dt), model.exogenous_names)
             notes.append(f"{rec.experiment_id}: averaged onto a {dt:g} s grid")
         u = r.exogenous_array(model)
-        for c in deviation:
-            j = list(model.exogenous_names).index(c)
-            u[:, j] -= u[0, j]
         if not np.isfinite(u).all():
             raise RecordingError(
                 f"{what} recording {rec.experiment_id!r}: exogenous signals hold NaN after "
@@ -320,8 +293,7 @@ def _network_x0(
     net = model.arrays(theta)
     H = net.H
     measured: dict[int, float] = {}
-    names = list(model.output_names)
-    for j, name in enumerate(names):
+    for j, name in enumerate(model.output_names):
         if name not in first or not math.isfinite(first[name]):
             continue
         row = H[j]
@@ -364,8 +336,7 @@ def initial_states(
         First measured value of each output.
     policy : {"rest", "measured"}
         ``rest``: the model's own initial state; ``measured``: measured
-        temperature states start at their measured values (see the module
-        docstring).
+        temperature states start at their measured values.
 
     Returns
     -------
@@ -390,68 +361,62 @@ def initial_states(
     return x
 
 
-def initial_directions(
-    model: Model, theta: NDArray[np.float64], u0: NDArray[np.float64], outputs: Sequence[str]
+def _network_directions(
+    model: Any, theta: NDArray[np.float64], u0: NDArray[np.float64], outputs: Sequence[str]
 ) -> NDArray[np.float64] | None:
-    """Unit initial-state deviations (n_dir, n_x) of the measured temperature states.
-
-    In a thermal network a deviation of one measured node spreads to the
-    unmeasured ones as the steady field it imposes (harmonic interpolation);
-    elsewhere it is a unit vector of a temperature state that is an output
-    (or, for a FOPTD set, of the first lag of each output).
-    """
+    """Harmonic initial-state directions of a thermal network's measured nodes, or None."""
     from thermogym.models.augmented import AugmentedModel
     from thermogym.models.fastnet import ExtraNodeNetwork, SwitchedNetwork
-    from thermogym.models.linear import FOPTDModel
     from thermogym.models.thermal_network import ThermalNetworkModel
 
-    if isinstance(model, SwitchedNetwork):
-        model = model.plant
-    if isinstance(model, ExtraNodeNetwork):
-        nb = len(model.plant.parameters)
-        d = initial_directions(model.plant, theta[:, :nb], u0, outputs)
-        return None if d is None else np.column_stack([d, np.zeros(d.shape[0])])
     if isinstance(model, AugmentedModel):
         nb = len(model.base.parameters)
-        d = initial_directions(model.base, theta[:, :nb], u0, outputs)
+        d = _network_directions(model.base, theta[:, :nb], u0, outputs)
         if d is None:
             return None
         full = np.zeros((d.shape[0], len(model.state_names)))
         full[:, : d.shape[1]] = d
         return full
+    if isinstance(model, SwitchedNetwork):
+        model = model.plant
+    if isinstance(model, ExtraNodeNetwork):
+        nb = len(model.plant.parameters)
+        d = _network_directions(model.plant, theta[:, :nb], u0, outputs)
+        return None if d is None else np.column_stack([d, np.zeros(d.shape[0])])
+    if not isinstance(model, ThermalNetworkModel):
+        return None
     units = {s.name: s.unit for s in model.signals}
     temp = [o for o in outputs if units.get(o) in _TEMPERATURE_UNITS]
-    if isinstance(model, ThermalNetworkModel):
-        x_rest = model.initial_state(theta, u0)
-        dirs = []
-        ref = {o: float(x_rest[0, 0]) for o in temp}
-        base = _network_x0(model, theta, u0, ref)
-        for o in temp:
-            bumped = dict(ref)
-            bumped[o] = ref[o] + 1.0
-            x = _network_x0(model, theta, u0, bumped)
-            if base is not None and x is not None and np.any(x[0] != base[0]):
-                dirs.append(x[0] - base[0])
-        return np.array(dirs) if dirs else None
-    if isinstance(model, FOPTDModel):
-        dirs = []
-        m = len(model.exogenous_names)
-        for o in outputs:
-            j = list(model.output_names).index(o)
-            d = np.zeros(len(model.state_names))
-            d[j * m] = 1.0
-            dirs.append(d)
-        return np.array(dirs)
+    x_rest = model.initial_state(theta, u0)
+    ref = {o: float(x_rest[0, 0]) for o in temp}
+    base = _network_x0(model, theta, u0, ref)
     dirs = []
     for o in temp:
-        if o in model.state_names:
-            d = np.zeros(len(model.state_names))
-            d[model.state_names.index(o)] = 1.0
-            dirs.append(d)
-    return np.array(dirs) if dirs else None
+        bumped = dict(ref)
+        bumped[o] = ref[o] + 1.0
+        x = _network_x0(model, theta, u0, bumped)
+        if base is not None and x is not None and np.any(x[0] != base[0]):
+            dirs.append(x[0] - base[0])
+    return np.array(dirs) if dirs else np.zeros((0, len(model.state_names)))
 
 
-# ------------------------------------------------------------------ least squares
+def _state_directions(model: Model, x_rest: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Unit deviations of the states whose initial values are unknown.
+
+    The unit is 1, or 1e-3 of a large state value.
+    """
+    from thermogym.models.augmented import AugmentedModel
+
+    scale = np.maximum(1.0, 1e-3 * np.abs(x_rest[0]))
+    dirs = np.diag(scale)
+    if isinstance(model, AugmentedModel):
+        # the augmentations' physical states (a sensor's lag, a mass) are unknown at the start
+        # like the base model's; clocks, dead-time histories and references are not
+        dirs = dirs[model.x0_free]
+    return dirs
+
+
+# ------------------------------------------------------------------ the problem
 @dataclass
 class FitProblem:
     """What :func:`fit_model` fits: a model, its free parameters, data and weights.
@@ -460,16 +425,20 @@ class FitProblem:
     ----------
     model : Model
     free : sequence of str
-        Parameters varied.
+        Parameters varied. Those of the group :data:`LOCAL_GROUP` are fitted
+        separately in every experiment; the others are shared.
     base : ndarray, shape (P,)
         Values of every parameter (the free ones are the start).
     lower, upper : ndarray, shape (k,)
-        Bounds of the free parameters (finite).
+        Bounds of the free parameters (finite), in the order of ``free``.
     experiments : sequence of Experiment
     weights : ndarray, shape (n_y,)
         Weight of each fitted output (1 / its spread).
-    x0 : str
-        Initial-state policy (see :func:`initial_states`).
+    x0 : {"estimate", "rest", "measured"}
+        Initial-state policy (module docstring).
+    local_values : list of dict, optional
+        Per experiment, values of local parameters that are *not* free (a
+        hypothesis evaluated with its per-recording course fixed).
     """
 
     model: Model
@@ -479,174 +448,205 @@ class FitProblem:
     upper: NDArray[np.float64]
     experiments: Sequence[Experiment]
     weights: NDArray[np.float64]
-    x0: str = "rest"
+    x0: str = "estimate"
+    local_values: list[dict[str, float]] | None = None
     n_sims: int = 0
 
     def __post_init__(self) -> None:
         self.free = tuple(self.free)
-        self._cols = np.array([self.model.param_index(p) for p in self.free], dtype=np.int64)
-        self.lower = np.asarray(self.lower, dtype=float)
-        self.upper = np.asarray(self.upper, dtype=float)
+        self.base = np.asarray(self.base, dtype=float).reshape(-1)
+        self.lower = np.asarray(self.lower, dtype=float).reshape(-1)
+        self.upper = np.asarray(self.upper, dtype=float).reshape(-1)
+        k = len(self.free)
+        if self.lower.shape != (k,) or self.upper.shape != (k,):
+            raise ShapeError(
+                f"bounds have shapes {self.lower.shape} and {self.upper.shape}; expected ({k},) "
+                f"for the free parameters {list(self.free)}"
+            )
         if not (np.isfinite(self.lower).all() and np.isfinite(self.upper).all()):
             raise IdentificationError(
                 f"parameters {list(self.free)} need finite bounds to be fitted"
             )
+        if self.x0 not in _X0_POLICIES:
+            raise IdentificationError(
+                f"initial-state policy {self.x0!r}; expected one of {_X0_POLICIES}"
+            )
+        groups = {p.name: p.group for p in self.model.parameters}
+        self._is_local = np.array([groups[p] == LOCAL_GROUP for p in self.free], dtype=bool)
+        self._gcols = np.array(
+            [
+                self.model.param_index(p)
+                for p, loc in zip(self.free, self._is_local, strict=True)
+                if not loc
+            ],
+            dtype=np.int64,
+        )
+        self._lcols = np.array(
+            [
+                self.model.param_index(p)
+                for p, loc in zip(self.free, self._is_local, strict=True)
+                if loc
+            ],
+            dtype=np.int64,
+        )
+        self.n_global = int(self._gcols.size)
+        self.n_local = int(self._lcols.size)
+        ne = len(self.experiments)
+        #: length of the free vector: shared, then one block of local parameters per experiment
+        self.n_free = self.n_global + ne * self.n_local
+        lo_g, hi_g = self.lower[~self._is_local], self.upper[~self._is_local]
+        lo_l, hi_l = self.lower[self._is_local], self.upper[self._is_local]
+        self.z_lower = np.concatenate([lo_g, np.tile(lo_l, ne)])
+        self.z_upper = np.concatenate([hi_g, np.tile(hi_l, ne)])
         self._out_idx = [
             np.array([self.model.output_names.index(o) for o in e.outputs])
             for e in self.experiments
         ]
-        if self.x0 not in ("rest", "measured", "estimate", "initial"):
-            raise IdentificationError(
-                f"initial-state policy {self.x0!r}; expected 'rest', 'measured', 'estimate' or "
-                "'initial'"
+        self._base_e = []
+        for i in range(ne):
+            b = self.base.copy()
+            for name, v in (self.local_values[i] if self.local_values else {}).items():
+                b[self.model.param_index(name)] = v
+            self._base_e.append(b)
+        self._net_dirs: list[NDArray[np.float64] | None] = [None] * ne
+        self._cached = (
+            _network_directions(
+                self.model, self.base[None], self.experiments[0].u[:1], self.experiments[0].outputs
             )
-        # experiments of equal length and period are simulated in one batch
-        keys: dict[tuple[int, float], list[int]] = {}
-        for i, e in enumerate(self.experiments):
-            keys.setdefault((e.n, round(e.dt, 9)), []).append(i)
-        self._groups = list(keys.values())
-        self._phi: list[NDArray[np.float64] | None] = [None] * len(self.experiments)
-        if self.x0 == "estimate":
-            for i in range(len(self.experiments)):
-                self._phi[i] = self._free_responses(i)
+            if ne
+            else None
+        )
+        if self._cached is not None and self.x0 == "estimate":
+            for i, e in enumerate(self.experiments):
+                self._net_dirs[i] = _network_directions(
+                    self.model, self.base[None], e.u[:1], e.outputs
+                )
 
-    def _free_responses(self, i: int) -> NDArray[np.float64] | None:
-        """Output response (T, n_y, n_dir) to unit initial deviations of the measured states."""
-        e = self.experiments[i]
-        first = self._off_rest(i)
-        dirs = initial_directions(self.model, self.base[None], e.u[:1], first)
-        if dirs is None or dirs.shape[0] == 0:
-            return None
-        n = dirs.shape[0]
-        th = np.repeat(self.base[None], n + 1, axis=0)
-        u0 = np.repeat(e.u[:1], n + 1, axis=0)
-        x_rest = initial_states(self.model, th[:1], u0[:1], None, "rest")
-        x0 = np.repeat(x_rest, n + 1, axis=0)
-        x0[1:] += dirs
-        try:
-            sim = self.model.simulate(e.u, e.dt, th, x0, t0=float(e.time[0]), strict=True)
-        except Exception:
-            return None
-        y = sim.outputs[:, :, self._out_idx[i]]
-        return np.moveaxis(y[1:] - y[:1], 0, -1)  # (T, n_y, n_dir), per unit deviation
+    # ---------------------------------------------------------------- vectors
+    def start(self) -> NDArray[np.float64]:
+        """Free vector of the start values (shared, then local blocks)."""
+        parts = [self.base[self._gcols]]
+        for i in range(len(self.experiments)):
+            parts.append(self._base_e[i][self._lcols])
+        return np.concatenate(parts)
 
-    def _off_rest(self, i: int) -> list[str]:
-        """Outputs whose first sample is off the rest state by more than the noise allows."""
-        from thermogym.identification.diagnosis.residuals import noise_sigma
-        from thermogym.models.linear import FOPTDModel
-
-        e = self.experiments[i]
-        base = getattr(self.model, "base", self.model)
-        if isinstance(base, FOPTDModel):
-            return list(e.outputs)  # a FOPTD set has no rest level before its offsets are fitted
-        th = self.base[None]
-        x = initial_states(self.model, th, e.u[:1], None, "rest")
-        y0 = self.model.output(x, e.u[:1], th)[0, self._out_idx[i]]
-        out = []
-        for j, o in enumerate(e.outputs):
-            sig = noise_sigma(e.y[:, j])
-            k = min(3, e.n)
-            first = float(np.nanmean(e.y[:k, j]))
-            if math.isfinite(sig) and abs(first - y0[j]) > 4.0 * max(sig, 1e-12):
-                out.append(o)
-        return out
-
-    def correct(self, yh: NDArray[np.float64], i: int) -> NDArray[np.float64]:
-        """Apply the initial-state policy to simulated outputs.
-
-        ``estimate``: add the least-squares initial-state response; ``initial``:
-        shift each output so that it starts at the recording's first value (the
-        operating point of paper 000, section 4.1: outputs are deviations from
-        the initial temperatures).
-        """
-        if self.x0 == "initial":
-            y0 = self.experiments[i].y[0]
-            shift = np.where(np.isfinite(y0)[None], y0[None] - yh[:, 0], 0.0)
-            return yh + shift[:, None, :]
-        phi = self._phi[i]
-        if phi is None:
-            return yh
-        e = self.experiments[i]
-        w = self.weights[None, :]
-        # only the first samples decide the initial state: over the whole record the slow free
-        # responses would act as extra basis functions and absorb model error
-        W = max(3, math.ceil(_X0_WINDOW * e.n))
-        ok = np.isfinite(e.y[:W])
-        A = (phi[:W] * w[:, :, None])[ok]  # (n_valid, n_dir)
-        out = np.array(yh, copy=True)
-        R = ((e.y[None, :W] - yh[:, :W]) * w[None])[:, ok]  # (B, n_valid)
-        good = np.isfinite(R).all(axis=1)
-        if not good.any():
-            return out
-        # δ = argmin ‖W (y − ŷ − Φ δ)‖² over the first samples (initial state as a nuisance)
-        D, *_ = np.linalg.lstsq(A, R[good].T, rcond=None)  # (n_dir, B_good)
-        out[good] += np.einsum("tyd,db->bty", phi, D)
-        return out
-
-    def theta(self, z: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Full parameter batch (B, P) from free values (B, k)."""
+    def theta_of(self, z: NDArray[np.float64], i: int) -> NDArray[np.float64]:
+        """Parameter batch (B, P) of experiment ``i`` from free vectors (B, n_free)."""
         z = np.atleast_2d(z)
-        th = np.repeat(self.base[None], z.shape[0], axis=0)
-        th[:, self._cols] = z
+        th = np.repeat(self._base_e[i][None], z.shape[0], axis=0)
+        th[:, self._gcols] = z[:, : self.n_global]
+        if self.n_local:
+            a = self.n_global + i * self.n_local
+            th[:, self._lcols] = z[:, a : a + self.n_local]
         return th
 
-    def simulate(self, theta: NDArray[np.float64], i: int) -> NDArray[np.float64]:
-        """Outputs (B, T, n_fit) of experiment ``i``; NaN rows for failed sets."""
+    def values(self, z: NDArray[np.float64]) -> dict[str, Any]:
+        """Shared parameter values and, per experiment, the local ones."""
+        z = np.asarray(z, dtype=float).reshape(-1)
+        names_g = [p for p, loc in zip(self.free, self._is_local, strict=True) if not loc]
+        names_l = [p for p, loc in zip(self.free, self._is_local, strict=True) if loc]
+        out: dict[str, Any] = dict(zip(names_g, map(float, z[: self.n_global]), strict=True))
+        if self.n_local:
+            out["local"] = [
+                dict(
+                    zip(
+                        names_l,
+                        map(float, z[self.n_global + i * self.n_local :][: self.n_local]),
+                        strict=True,
+                    )
+                )
+                for i in range(len(self.experiments))
+            ]
+        return out
+
+    # ------------------------------------------------------------- simulation
+    def simulate(self, z: NDArray[np.float64], i: int) -> NDArray[np.float64]:
+        """Fitted outputs (B, T, n_fit) of experiment ``i``, initial state by the policy.
+
+        NaN rows for parameter sets that fail.
+        """
+        th = self.theta_of(z, i)
+        return self._simulate_theta(th, i)
+
+    def _simulate_theta(self, th: NDArray[np.float64], i: int) -> NDArray[np.float64]:
         e = self.experiments[i]
+        B = th.shape[0]
         first = {o: float(e.y[0, j]) for j, o in enumerate(e.outputs)}
-        B = theta.shape[0]
         u0 = np.repeat(e.u[:1], B, axis=0)
-        self.n_sims += B
         try:
-            policy = "rest" if self.x0 in ("estimate", "initial") else self.x0
-            x0 = initial_states(self.model, theta, u0, first, policy)
-            sim = self.model.simulate(e.u, e.dt, theta, x0, t0=float(e.time[0]), strict=False)
-            return self.correct(sim.outputs[:, :, self._out_idx[i]], i)
+            policy = "rest" if self.x0 == "estimate" else self.x0
+            x0 = initial_states(self.model, th, u0, first, policy)
+            if self.x0 != "estimate":
+                sim = self.model.simulate(e.u, e.dt, th, x0, t0=float(e.time[0]), strict=False)
+                self.n_sims += B
+                return sim.outputs[:, :, self._out_idx[i]]
+            return self._estimated(th, x0, i)
         except Exception:
             if B == 1:
                 return np.full((1, e.n, len(e.outputs)), np.nan)
             # one bad set must not spoil the others: simulate them one by one
-            return np.concatenate([self.simulate(theta[b : b + 1], i) for b in range(B)])
+            return np.concatenate([self._simulate_theta(th[b : b + 1], i) for b in range(B)])
 
-    def simulate_group(self, theta: NDArray[np.float64], group: Sequence[int]) -> list:
-        """Outputs of several experiments of equal length and period in one batched call.
+    def _estimated(
+        self, th: NDArray[np.float64], x0: NDArray[np.float64], i: int
+    ) -> NDArray[np.float64]:
+        """Outputs with the least-squares initial state (module docstring)."""
+        e = self.experiments[i]
+        B = th.shape[0]
+        dirs = self._net_dirs[i]
+        if dirs is None:
+            dirs = _state_directions(self.model, x0[:1])
+        nd = dirs.shape[0]
+        if nd == 0:
+            sim = self.model.simulate(e.u, e.dt, th, x0, t0=float(e.time[0]), strict=False)
+            self.n_sims += B
+            return sim.outputs[:, :, self._out_idx[i]]
+        # every set with its rest state and its n_d deviations in one batch
+        th_all = np.repeat(th, nd + 1, axis=0)
+        x_all = np.repeat(x0, nd + 1, axis=0).reshape(B, nd + 1, -1)
+        x_all[:, 1:, :] += dirs[None]
+        sim = self.model.simulate(
+            e.u, e.dt, th_all, x_all.reshape(B * (nd + 1), -1), t0=float(e.time[0]), strict=False
+        )
+        self.n_sims += B * (nd + 1)
+        y = sim.outputs[:, :, self._out_idx[i]].reshape(B, nd + 1, e.n, -1)
+        y0 = y[:, 0]
+        psi = y[:, 1:] - y0[:, None]  # (B, n_d, T, n_y) free responses
+        return self._project(y0, psi, i)
 
-        The parameter sets are repeated per experiment (batch index ``b G + g``),
-        so the model's kernel sees one large batch (and runs it in parallel
-        where it can) instead of ``G`` small ones.
-        """
-        if len(group) == 1:
-            return [self.simulate(theta, group[0])]
-        B, G = theta.shape[0], len(group)
-        exps = [self.experiments[i] for i in group]
-        try:
-            th = np.repeat(theta, G, axis=0)
-            u = np.stack([e.u for e in exps])  # (G, T, m)
-            ub = np.tile(u, (B, 1, 1))
-            policy = "rest" if self.x0 in ("estimate", "initial") else self.x0
-            x0 = np.empty((B * G, len(self.model.state_names)))
-            for g, e in enumerate(exps):
-                first = {o: float(e.y[0, j]) for j, o in enumerate(e.outputs)}
-                x0[g::G] = initial_states(
-                    self.model, theta, np.repeat(e.u[:1], B, axis=0), first, policy
-                )
-            sim = self.model.simulate(
-                ub, exps[0].dt, th, x0, t0=float(exps[0].time[0]), strict=False
-            )
-            self.n_sims += B * G
-        except Exception:  # one experiment at a time (it handles failures per set)
-            return [self.simulate(theta, i) for i in group]
-        return [
-            self.correct(sim.outputs[g::G][:, :, self._out_idx[i]], i) for g, i in enumerate(group)
-        ]
+    def _project(
+        self, y0: NDArray[np.float64], psi: NDArray[np.float64], i: int
+    ) -> NDArray[np.float64]:
+        e = self.experiments[i]
+        w = self.weights
+        out = np.array(y0, copy=True)
+        for b in range(y0.shape[0]):
+            P = psi[b]
+            if not (np.isfinite(P).all() and np.isfinite(y0[b]).all()):
+                out[b] = np.nan
+                continue
+            energy = np.sum((P * w[None, None, :]) ** 2, axis=(0, 2))  # per time step
+            tot = float(energy.sum())
+            if tot <= 0.0:
+                continue
+            c = np.cumsum(energy) / tot
+            W = int(np.searchsorted(c, _X0_ENERGY)) + 1
+            W = min(e.n, max(W, 3, math.ceil(0.05 * e.n)))
+            ok = np.isfinite(e.y[:W])
+            A = np.moveaxis(P[:, :W] * w[None, None, :], 0, -1)[ok]  # (n_valid, n_d)
+            r = ((e.y[:W] - y0[b, :W]) * w[None, :])[ok]
+            if A.shape[0] < A.shape[1]:
+                continue
+            # δ = argmin ‖W (y − ŷ − Ψ δ)‖², unobservable directions dropped (truncated SVD)
+            D, *_ = np.linalg.lstsq(A, r, rcond=_X0_RCOND)
+            out[b] += np.einsum("dty,d->ty", P, D)
+        return out
 
-    def residuals(self, theta: NDArray[np.float64]) -> NDArray[np.float64]:
+    def residuals(self, z: NDArray[np.float64]) -> NDArray[np.float64]:
         """Weighted residual vectors (B, N) over every experiment (NaN-free)."""
-        parts: list[NDArray[np.float64] | None] = [None] * len(self.experiments)
-        for group in self._groups:
-            for i, yh in zip(group, self.simulate_group(theta, group), strict=True):
-                parts[i] = self._weighted(yh, i)
-        return np.concatenate(parts, axis=1)  # type: ignore[arg-type]
+        z = np.atleast_2d(z)
+        parts = [self._weighted(self.simulate(z, i), i) for i in range(len(self.experiments))]
+        return np.concatenate(parts, axis=1)
 
     def _weighted(self, yh: NDArray[np.float64], i: int) -> NDArray[np.float64]:
         e = self.experiments[i]
@@ -656,7 +656,48 @@ class FitProblem:
         r[bad] = 1e3  # a failed simulation: a large, flat penalty
         return r.reshape(r.shape[0], -1)
 
+    def jacobian(
+        self, z: NDArray[np.float64], r0: NDArray[np.float64], h: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """Forward-difference Jacobian (N, n_free) at ``z`` with steps ``h`` (free units).
 
+        Shared columns are simulated on every experiment in one batch each;
+        a local column only on its own experiment.
+        """
+        ne = len(self.experiments)
+        sizes = [self.experiments[i].n * len(self.experiments[i].outputs) for i in range(ne)]
+        offs = np.concatenate([[0], np.cumsum(sizes)])
+        J = np.zeros((int(offs[-1]), self.n_free))
+        g = self.n_global
+        if g:
+            Z = np.repeat(z[None], g, axis=0)
+            Z[np.arange(g), np.arange(g)] += h[:g]
+            for i in range(ne):
+                R = self._weighted(self.simulate(Z, i), i)
+                J[offs[i] : offs[i + 1], :g] = (
+                    (R - r0[None, offs[i] : offs[i + 1]]) / h[:g, None]
+                ).T
+        if self.n_local:
+            L = self.n_local
+            for i in range(ne):
+                a = g + i * L
+                Z = np.repeat(z[None], L, axis=0)
+                Z[np.arange(L), a + np.arange(L)] += h[a : a + L]
+                R = self._weighted(self.simulate(Z, i), i)
+                J[offs[i] : offs[i + 1], a : a + L] = (
+                    (R - r0[None, offs[i] : offs[i + 1]]) / h[a : a + L, None]
+                ).T
+        return J
+
+    def residual_series(self, z: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+        """Unweighted residuals ``y − ŷ`` (T, n_y) per experiment at one free vector."""
+        return [
+            self.experiments[i].y - self.simulate(z[None], i)[0]
+            for i in range(len(self.experiments))
+        ]
+
+
+# ------------------------------------------------------------------ fitting
 @dataclass
 class FitOutcome:
     """Result of :func:`fit_model`.
@@ -664,13 +705,20 @@ class FitOutcome:
     Attributes
     ----------
     theta : ndarray, shape (P,)
-        Every parameter at the optimum.
+        Every parameter at the optimum (local parameters: those of the first
+        experiment; see ``local``).
+    z : ndarray
+        The free vector at the optimum (shared, then per-experiment blocks).
     free : tuple of str
     values : dict
-        Free parameter → value.
+        Shared free parameter → value.
+    local : list of dict
+        Per experiment, local parameter → value (empty without local parameters).
     stderr : dict
-        Free parameter → standard error (NaN where not identifiable).
+        Shared free parameter → standard error (NaN where not identifiable).
     covariance : ndarray or None
+        Of the shared free parameters (``covariance_names``).
+    covariance_names : tuple of str
     cost : float
         ``½ Σ r²`` of the weighted residuals.
     n_residuals : int
@@ -679,14 +727,20 @@ class FitOutcome:
     success : bool
     message : str
     at_bounds : list of str
-        Free parameters that ended at a bound.
+        Shared free parameters that ended at a bound.
+    jacobian : ndarray or None
+        Weighted residual Jacobian at the optimum, columns in the units of the
+        free parameters (identifiability, profile checks).
     """
 
     theta: NDArray[np.float64]
+    z: NDArray[np.float64]
     free: tuple[str, ...]
     values: dict[str, float]
+    local: list[dict[str, float]]
     stderr: dict[str, float]
     covariance: NDArray[np.float64] | None
+    covariance_names: tuple[str, ...]
     cost: float
     n_residuals: int
     nfev: int
@@ -695,90 +749,35 @@ class FitOutcome:
     success: bool
     message: str
     at_bounds: list[str] = field(default_factory=list)
+    jacobian: NDArray[np.float64] | None = field(default=None, repr=False)
 
 
-def _covariance(J: NDArray[np.float64], r: NDArray[np.float64]) -> tuple[Any, NDArray[np.float64]]:
-    try:
-        from thermogym.identification.uncertainty import covariance_from_jacobian
+def sobol_starts(lower: NDArray[np.float64], upper: NDArray[np.float64], n: int, seed: int = 0):
+    """``n`` start points spread inside the bounds (scrambled Sobol', seeded), shape (n, k).
 
-        cov, se, *_ = covariance_from_jacobian(J, r)
-        return cov, se
-    except ImportError:  # pragma: no cover - fallback while the module is absent
-        pass
-    N, P = J.shape
-    s2 = float(r @ r) / max(N - P, 1)
-    try:
-        cov = s2 * np.linalg.inv(J.T @ J)
-    except np.linalg.LinAlgError:
-        return None, np.full(P, np.nan)
-    return cov, np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    Positive ranges over more than a decade are spread logarithmically (time
+    constants, conductances); the others linearly.
 
-
-def _projected_lm(
-    fun: Callable[[NDArray[np.float64]], NDArray[np.float64]],
-    jac: Callable[[NDArray[np.float64]], NDArray[np.float64]],
-    s0: NDArray[np.float64],
-    *,
-    max_nfev: int,
-    xtol: float,
-    ftol: float,
-) -> tuple[NDArray[np.float64], int, int, bool, str]:
-    """Levenberg-Marquardt on the normal equations, projected onto the unit box.
-
-    Written here rather than calling ``scipy.optimize.least_squares``: its
-    trust-region solvers factor (SVD) or iterate (LSMR) on the full m × k
-    Jacobian at every step, which dominates the run time when m is a few
-    hundred thousand residuals and k ~ 20 parameters; the k × k normal
-    equations ``(JᵀJ + λ diag(JᵀJ)) δ = −Jᵀr`` cost one product ``JᵀJ`` per
-    Jacobian. Steps are clipped to the box ``[0, 1]^k``; parameters at a bound
-    whose gradient points outwards are held for that step.
+    Examples
+    --------
+    >>> import numpy as np
+    >>> s = sobol_starts(np.array([0.0, 1.0]), np.array([1.0, 1000.0]), 4)
+    >>> s.shape, bool(((s >= [0, 1]) & (s <= [1, 1000])).all())
+    ((4, 2), True)
     """
-    s = np.clip(np.asarray(s0, dtype=float), 0.0, 1.0)
-    r = fun(s)
-    cost = 0.5 * float(r @ r)
-    nfev, njev = 1, 0
-    lam = 1e-3
-    k = s.size
-    while nfev < max_nfev:
-        J = jac(s)
-        njev += 1
-        g = J.T @ r
-        H = J.T @ J
-        d = np.diag(H).copy()
-        free = ~(((s <= 0.0) & (g > 0)) | ((s >= 1.0) & (g < 0)))
-        if not free.any():
-            return s, nfev, njev, True, "every parameter at a bound"
-        improved = False
-        while nfev < max_nfev:
-            A = H[np.ix_(free, free)] + lam * np.diag(d[free] + 1e-12 * (d.max() + 1e-300))
-            try:
-                step_f = -np.linalg.solve(A, g[free])
-            except np.linalg.LinAlgError:
-                lam *= 10.0
-                continue
-            step = np.zeros(k)
-            step[free] = step_f
-            s_new = np.clip(s + step, 0.0, 1.0)
-            r_new = fun(s_new)
-            nfev += 1
-            c_new = 0.5 * float(r_new @ r_new)
-            if math.isfinite(c_new) and c_new < cost:
-                dx = float(np.max(np.abs(s_new - s)))
-                rel = (cost - c_new) / max(cost, 1e-300)
-                s, r, cost = s_new, r_new, c_new
-                # a tiny step only means convergence when it is a (nearly) Gauss-Newton step
-                gn = lam < 1e-2
-                lam = max(lam / 3.0, 1e-9)
-                improved = True
-                if gn and (rel < ftol or dx < xtol):
-                    return s, nfev, njev, True, "converged"
-                break
-            lam *= 4.0
-            if lam > 1e10:
-                return s, nfev, njev, True, "no further decrease"
-        if not improved:
-            break
-    return s, nfev, njev, False, "largest number of evaluations reached"
+    from scipy.stats import qmc
+
+    lo, hi = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+    k = lo.size
+    if n <= 0 or k == 0:
+        return np.zeros((0, k))
+    m = max(1, math.ceil(math.log2(max(n, 1))))
+    q = qmc.Sobol(k, scramble=True, seed=seed).random_base2(m)[:n]
+    logs = (lo > 0) & (hi / np.where(lo > 0, lo, 1.0) > 10.0)
+    out = lo + q * (hi - lo)
+    if logs.any():
+        out[:, logs] = np.exp(np.log(lo[logs]) + q[:, logs] * (np.log(hi[logs]) - np.log(lo[logs])))
+    return out
 
 
 def fit_model(
@@ -786,135 +785,188 @@ def fit_model(
     *,
     start: NDArray[np.float64] | None = None,
     starts: Sequence[NDArray[np.float64]] = (),
+    n_random: int = 0,
+    n_refine: int = 1,
     max_nfev: int = 60,
     xtol: float = 1e-8,
     ftol: float = 1e-8,
     deadline: float | None = None,
+    seed: int = 0,
+    covariance: bool = True,
 ) -> FitOutcome:
     """Bounded least squares of the weighted simulation error (see the module docstring).
 
     Parameters
     ----------
     problem : FitProblem
-    start : ndarray, shape (k,), optional
-        Start of the free parameters (default: their values in ``problem.base``).
+    start : ndarray, shape (n_free,), optional
+        Start (default: ``problem.start()``).
     starts : sequence of ndarray
-        Further starts tried first for one cost evaluation each (multimodal
-        parameters such as delays); the best start is refined.
+        Further starts of the shared parameters (local blocks as ``start``).
+    n_random : int
+        Further starts of the shared parameters drawn inside their bounds
+        (:func:`sobol_starts`).
+    n_refine : int
+        How many of the best starts (one batched evaluation of all) are refined.
     max_nfev : int
-        Largest number of cost evaluations of the refinement.
+        Largest number of cost evaluations of one refinement.
     xtol, ftol : float
-        Stop when a step moves no scaled parameter by more than ``xtol`` or
-        lowers the cost by less than the relative ``ftol``.
+        Convergence tolerances (scaled parameters, relative cost).
     deadline : float, optional
-        ``time.perf_counter()`` value after which the refinement stops.
+        ``time.perf_counter()`` value after which refinements stop.
+    seed : int
+        Of the random starts.
+    covariance : bool
+        Compute the Jacobian and covariance at the optimum.
 
     Returns
     -------
     FitOutcome
     """
     t0 = time.perf_counter()
-    lo, hi = problem.lower, problem.upper
+    lo, hi = problem.z_lower, problem.z_upper
     span = np.where(hi > lo, hi - lo, 1.0)
-    k = len(problem.free)
-    x_start = problem.base[problem._cols] if start is None else np.asarray(start, dtype=float)
-    cands = [x_start, *[np.asarray(s, dtype=float) for s in starts]]
+    k = problem.n_free
+    z_start = problem.start() if start is None else np.asarray(start, dtype=float)
+    cands = [z_start]
+    g = problem.n_global
+    extra = [np.asarray(s, dtype=float).reshape(-1) for s in starts]
+    if n_random and g:
+        extra += list(sobol_starts(lo[:g], hi[:g], n_random, seed))
+    for s in extra:
+        c = z_start.copy()
+        c[: min(g, s.size)] = s[:g]
+        cands.append(c)
     cands = [np.clip(c, lo, hi) for c in cands]
-    if len(cands) > 1:
-        costs = [
-            0.5 * float(np.sum(problem.residuals(problem.theta(c[None]))[0] ** 2)) for c in cands
-        ]
-        x_start = cands[int(np.argmin(costs))]
-    else:
-        x_start = cands[0]
     if k == 0:
-        r = problem.residuals(problem.theta(x_start[None]))[0]
-        return FitOutcome(
-            problem.theta(x_start[None])[0],
-            (),
-            {},
-            {},
-            None,
-            0.5 * float(r @ r),
-            r.size,
-            1,
-            0,
-            time.perf_counter() - t0,
-            True,
-            "nothing to fit",
-        )
-    s0 = (x_start - lo) / span
+        r = problem.residuals(z_start[None])[0]
+        return _outcome(problem, z_start, r, None, 1, 0, t0, True, "nothing to fit", False)
+    if len(cands) > 1:
+        R = problem.residuals(np.array(cands))
+        costs = 0.5 * np.sum(R**2, axis=1)
+        order = [int(i) for i in np.argsort(costs, kind="stable")]
+        cands = [cands[i] for i in order[: max(1, n_refine)]]
+    best: dict[str, Any] = {"z": cands[0], "cost": math.inf, "r": None}
+    nfev_total, njev_total = 0, 0
+    message, success = "", False
+    for c0 in cands:
+        fun, jac = _objective(problem, lo, span, best, deadline)
+        try:
+            res = box_least_squares(
+                fun, jac, (c0 - lo) / span, max_nfev=max_nfev, xtol=xtol, ftol=ftol
+            )
+            nfev_total += res.nfev
+            njev_total += res.njev
+            message, success = res.message, res.success
+        except _Stop:
+            message, success = "stopped at the time limit", False
+            break
+    z_opt = best["z"]
+    r = best["r"] if best["r"] is not None else problem.residuals(z_opt[None])[0]
+    return _outcome(
+        problem, z_opt, r, None, nfev_total, njev_total, t0, success, message, covariance
+    )
+
+
+class _Stop(Exception):
+    """The time limit passed during a refinement."""
+
+
+def _objective(
+    problem: FitProblem,
+    lo: NDArray[np.float64],
+    span: NDArray[np.float64],
+    best: dict[str, Any],
+    deadline: float | None,
+) -> tuple[Any, Any]:
+    """Residuals and Jacobian in unit coordinates, cached, tracking the best point in ``best``."""
     cache: dict[bytes, NDArray[np.float64]] = {}
-    h = 1e-6
-
-    class _Stop(Exception):
-        pass
-
-    def to_x(s: NDArray[np.float64]) -> NDArray[np.float64]:
-        return lo + np.clip(s, 0.0, 1.0) * span
+    h_unit = 1e-6
 
     def fun(s: NDArray[np.float64]) -> NDArray[np.float64]:
         key = s.tobytes()
         if key not in cache:
             if deadline is not None and time.perf_counter() > deadline and cache:
                 raise _Stop
-            cache.clear() if len(cache) > 4 else None
-            cache[key] = problem.residuals(problem.theta(to_x(s)[None]))[0]
+            if len(cache) > 4:
+                cache.clear()
+            z = lo + np.clip(s, 0.0, 1.0) * span
+            r = problem.residuals(z[None])[0]
+            cache[key] = r
+            c = 0.5 * float(r @ r)
+            if c < best["cost"]:
+                best.update(z=z, cost=c, r=r)
         return cache[key]
 
     def jac(s: NDArray[np.float64]) -> NDArray[np.float64]:
-        f0 = fun(s)
-        steps = np.where(s + h <= 1.0, h, -h)
-        S = np.repeat(s[None], k, axis=0) + np.diag(steps)
-        R = problem.residuals(problem.theta(to_x(S)))
-        return ((R - f0[None]) / steps[:, None]).T
+        r0 = fun(s)
+        steps = np.where(s + h_unit <= 1.0, h_unit, -h_unit)
+        z = lo + np.clip(s, 0.0, 1.0) * span
+        return problem.jacobian(z, r0, steps * span) * span[None, :]
 
-    best = {"s": s0.copy(), "cost": math.inf}
+    return fun, jac
 
-    def tracked(s: NDArray[np.float64]) -> NDArray[np.float64]:
-        r = fun(s)
-        c = 0.5 * float(r @ r)
-        if c < best["cost"]:
-            best["s"], best["cost"] = s.copy(), c
-        return r
 
-    message, success, nfev, njev = "", False, 0, 0
-    try:
-        s_opt, nfev, njev, success, message = _projected_lm(
-            tracked, jac, s0, max_nfev=max_nfev, xtol=xtol, ftol=ftol
-        )
-        if best["cost"] < 0.5 * float(fun(s_opt) @ fun(s_opt)):
-            s_opt = best["s"]
-    except _Stop:
-        s_opt, message = best["s"], "stopped at the time limit"
-    x_opt = to_x(s_opt)
-    r = fun(s_opt)
-    J = jac(s_opt) / span[None, :]
-    valid = np.any(J != 0.0, axis=1) | (r != 0.0)
-    try:
-        cov, se = _covariance(J[valid], r[valid])
-    except ShapeError:
-        cov, se = None, np.full(k, np.nan)
+def _outcome(
+    problem: FitProblem,
+    z: NDArray[np.float64],
+    r: NDArray[np.float64],
+    J: NDArray[np.float64] | None,
+    nfev: int,
+    njev: int,
+    t0: float,
+    success: bool,
+    message: str,
+    covariance: bool,
+) -> FitOutcome:
+    lo, hi = problem.z_lower, problem.z_upper
+    g = problem.n_global
+    names_g = tuple(p for p, loc in zip(problem.free, problem._is_local, strict=True) if not loc)
+    cov, se = None, np.full(g, np.nan)
+    if covariance and problem.n_free:
+        span = np.where(hi > lo, hi - lo, 1.0)
+        steps = np.where(z + 1e-6 * span <= hi, 1e-6 * span, -1e-6 * span)
+        J = problem.jacobian(z, r, steps)
+        valid = np.any(J != 0.0, axis=1) | (r != 0.0)
+        cov_full, se_full = _covariance(J[valid], r[valid])
+        se = se_full[:g]
+        cov = None if cov_full is None else cov_full[:g, :g]
     at = [
         p
-        for p, x, a, b in zip(problem.free, x_opt, lo, hi, strict=True)
+        for p, x, a, b in zip(names_g, z[:g], lo[:g], hi[:g], strict=True)
         if x <= a + 1e-6 * (b - a) or x >= b - 1e-6 * (b - a)
     ]
+    vals = problem.values(z)
+    local = vals.pop("local", [])
     return FitOutcome(
-        theta=problem.theta(x_opt[None])[0],
+        theta=problem.theta_of(z[None], 0)[0],
+        z=np.asarray(z, dtype=float),
         free=problem.free,
-        values={p: float(v) for p, v in zip(problem.free, x_opt, strict=True)},
-        stderr={p: float(v) for p, v in zip(problem.free, se, strict=True)},
+        values={k: float(v) for k, v in vals.items()},
+        local=local,
+        stderr={p: float(v) for p, v in zip(names_g, se, strict=True)},
         covariance=cov,
+        covariance_names=names_g,
         cost=0.5 * float(r @ r),
-        n_residuals=int(valid.sum()),
+        n_residuals=int(r.size),
         nfev=nfev,
         njev=njev,
         seconds=time.perf_counter() - t0,
         success=success,
         message=message,
         at_bounds=at,
+        jacobian=J,
     )
+
+
+def _covariance(J: NDArray[np.float64], r: NDArray[np.float64]) -> tuple[Any, NDArray[np.float64]]:
+    from thermogym.identification.uncertainty import covariance_from_jacobian
+
+    try:
+        cov, se, *_ = covariance_from_jacobian(J, r, block=None)
+    except ShapeError:
+        return None, np.full(J.shape[1], np.nan)
+    return cov, se
 
 
 def output_weights(experiments: Sequence[Experiment]) -> NDArray[np.float64]:
@@ -929,9 +981,13 @@ def simulate_all(
     model: Model,
     theta: NDArray[np.float64],
     experiments: Sequence[Experiment],
-    x0: str = "rest",
+    x0: str = "estimate",
+    weights: NDArray[np.float64] | None = None,
+    local: Sequence[Mapping[str, float]] | None = None,
 ) -> list[NDArray[np.float64]]:
     """Simulated fitted outputs (T, n_fit) of one parameter set on every experiment."""
+    if not experiments:
+        return []
     pb = FitProblem(
         model,
         (),
@@ -939,8 +995,9 @@ def simulate_all(
         np.zeros(0),
         np.zeros(0),
         experiments,
-        np.ones(len(experiments[0].outputs)) if experiments else np.ones(0),
+        np.ones(len(experiments[0].outputs)) if weights is None else weights,
         x0,
+        local_values=[dict(v) for v in local] if local else None,
     )
-    th = np.asarray(theta, dtype=float).reshape(1, -1)
-    return [pb.simulate(th, i)[0] for i in range(len(experiments))]
+    z = np.zeros((1, 0))
+    return [pb.simulate(z, i)[0] for i in range(len(experiments))]

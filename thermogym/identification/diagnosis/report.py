@@ -3,7 +3,13 @@
 :class:`DiagnosisReport` is what :func:`~thermogym.identification.diagnosis.diagnose`
 returns. Its JSON (:meth:`DiagnosisReport.to_dict`) has at least::
 
-    {"format": "thermogym.diagnosis", "schema_version": 1,
+    {"format": "thermogym.diagnosis", "schema_version": 2,
+     "named_effects": ["nonlinear_heat_transfer", "sensor_lag"],   # or ["none"] ...
+     "combination": [{"effect", "form", "target", "share_of_explained_error", "params",
+                      "baseline": {"generic_fix", "delta_ic", "physics_favoured"}}, ...],
+     "nominal_adequate": true, "baseline": {ARX(2, 2) on the same data},
+     "parameters": {"significant", "moved", "parameters": {name: {given, calibrated,
+                    low, high, identifiable, note}}},
      "mismatch_detected": true,
      "located": {"signals": [...], "windows": [...], "regimes": [...]},
      "hypotheses": [{"rank": 1, "effect": ..., "target": ..., "explanation": ...,
@@ -39,7 +45,7 @@ from thermogym.fitresult import FitResult
 __all__ = ["DiagnosisReport"]
 
 FORMAT = "thermogym.diagnosis"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 
 def _public(d: dict[str, Any]) -> dict[str, Any]:
@@ -85,6 +91,21 @@ class DiagnosisReport:
         Residual tests of the winner.
     scheme : str
         ``split`` or ``crossfit``.
+    named_effects : list of str
+        What the diagnosis names, in order: the physics effects kept by the
+        forward selection (then ``parameter_error`` when re-calibrating the
+        given parameters was needed too), or ``["parameter_error"]``,
+        ``["none"]``, ``["unexplained"]``.
+    combination : list of dict
+        Each kept effect with its form, its share of the explained held-out
+        error, its parameters and the generic fix beside it.
+    parameters : dict
+        The parameter-or-physics test: given against re-calibrated parameters.
+    baseline : dict
+        The plain ARX baseline on the same data.
+    nominal_adequate : bool
+        Whether the nominal model predicts the held-out data at least as well
+        as the plain ARX.
     """
 
     model: str
@@ -106,6 +127,13 @@ class DiagnosisReport:
     signatures: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     seconds: float = 0.0
+    named_effects: list[str] = field(default_factory=list)
+    combination: list[dict[str, Any]] = field(default_factory=list)
+    parameters: dict[str, Any] = field(default_factory=dict)
+    baseline: dict[str, Any] = field(default_factory=dict)
+    nominal_adequate: bool = True
+    stages: dict[str, float] = field(default_factory=dict)
+    selection: list[dict[str, Any]] = field(default_factory=list)
     # arrays kept for figures (not in the JSON)
     series: list[dict[str, Any]] = field(default_factory=list, repr=False)
     regime_values: list[Any] = field(default_factory=list, repr=False)
@@ -115,22 +143,54 @@ class DiagnosisReport:
     # ------------------------------------------------------------------ JSON
     @property
     def verdict(self) -> str:
-        """One sentence: what was found."""
-        e = self.best.get("effect", "none")
-        if not self.mismatch_detected:
-            return "No significant mismatch: the model reproduces the recordings to within noise."
+        """One sentence (or two): what was found."""
+        named = self.named_effects or [self.best.get("effect", "none")]
+        lead = ""
+        if not self.nominal_adequate:
+            b = self.baseline.get("validation", {}).get("mean", math.nan)
+            n = self.baseline.get("nominal_validation", {}).get("mean", math.nan)
+            lead = (
+                f"Nominal model inadequate: a plain ARX predicts the held-out data better "
+                f"(mean NRMSE {b:.3f} against {n:.3f}). "
+            )
         where = ", ".join(d["signal"] for d in self.located.get("signals", [])[:2])
-        if e == "unexplained":
-            return (
+        if named == ["none"]:
+            return lead + (
+                "No significant mismatch: the model reproduces the recordings to within their "
+                "noise."
+            )
+        if named == ["unexplained"]:
+            return lead + (
                 f"Significant mismatch (mostly {where}); no hypothesis explains it on held-out "
                 "data."
             )
+        if named == ["parameter_error"]:
+            moved = self.parameters.get("moved", [])
+            return lead + (
+                "Parameter error: re-calibrating the model's own parameters "
+                f"({', '.join(moved) or 'within their intervals'}) explains the mismatch; no "
+                "physics is missing."
+            )
+        parts = []
+        for c in self.combination:
+            share = c.get("share_of_explained_error", math.nan)
+            parts.append(
+                f"'{c['effect']}' ({c['form']}, {c['target']}"
+                + (f", {100 * share:.0f} % of the explained error" if math.isfinite(share) else "")
+                + ")"
+            )
         before = self.best.get("validation_before", {}).get("mean", math.nan)
         after = self.best.get("validation_after", {}).get("mean", math.nan)
-        tgt = f" ({self.best.get('target')})" if self.best.get("target") else ""
-        return (
-            f"Significant mismatch (mostly {where}): missing physics '{e}'{tgt}; "
-            f"held-out mean NRMSE {before:.4f} → {after:.4f}."
+        extra = " Parameters re-calibrated too." if "parameter_error" in named else ""
+        doubt = ""
+        if any(not c.get("baseline", {}).get("physics_favoured", True) for c in self.combination):
+            doubt = (
+                " The evidence does not favour a physical explanation over a generic extra "
+                "state for every effect (see the baselines)."
+            )
+        return lead + (
+            f"Significant mismatch (mostly {where}): missing physics {' + '.join(parts)}; "
+            f"held-out mean NRMSE {before:.4f} → {after:.4f}.{extra}{doubt}"
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -147,6 +207,12 @@ class DiagnosisReport:
             "model_config": self.model_config,
             "outputs": self.outputs,
             "verdict": self.verdict,
+            "named_effects": list(self.named_effects),
+            "combination": self.combination,
+            "nominal_adequate": self.nominal_adequate,
+            "baseline": self.baseline,
+            "parameters": self.parameters,
+            "selection": self.selection,
             "mismatch_detected": self.mismatch_detected,
             "located": located,
             "hypotheses": hyps,
@@ -164,6 +230,7 @@ class DiagnosisReport:
             "signatures": self.signatures,
             "notes": self.notes,
             "seconds": self.seconds,
+            "stage_seconds": self.stages,
             "package_version": thermogym.__version__,
         }
         return to_jsonable(doc, "diagnosis report")
@@ -263,27 +330,75 @@ class DiagnosisReport:
             f"**{self.verdict}**",
             "",
         ]
-        if b.get("effect") not in (None, "none"):
-            parts += [f"## What is missing: `{b['effect']}`", "", b.get("explanation", ""), ""]
-            if b.get("evidence"):
-                parts += [f"*Residual signature:* {b['evidence']}.", ""]
-            if b.get("params"):
+
+        def params_table(params: dict[str, Any]) -> str:
+            return table(
+                ["parameter", "value", "95 % interval", "unit", "meaning"],
+                [
+                    [
+                        k,
+                        _f(v.get("value", math.nan), 4),
+                        (
+                            f"{_f(v.get('low', math.nan), 3)} … {_f(v.get('high', math.nan), 3)}"
+                            if v.get("identifiable", True)
+                            else v.get("note", "not identifiable from these data")
+                        ),
+                        v.get("unit", ""),
+                        v.get("description", ""),
+                    ]
+                    for k, v in params.items()
+                ],
+            )
+
+        if not self.nominal_adequate and self.baseline:
+            parts += [
+                "## Nominal model inadequate",
+                "",
+                f"A plain {self.baseline.get('model', 'ARX')} fitted on the same training data "
+                f"({self.baseline.get('n_params', '?')} parameters) predicts the held-out data "
+                f"better: mean NRMSE {_f(self.baseline.get('validation', {}).get('mean'))} "
+                f"against the nominal model's "
+                f"{_f(self.baseline.get('nominal_validation', {}).get('mean'))}. What follows "
+                "stands on a model that misses more than one effect can explain.",
+                "",
+            ]
+        if self.combination:
+            parts += ["## What is missing", ""]
+            for c in self.combination:
+                eff = c["effect"]
+                share = c.get("share_of_explained_error", math.nan)
                 parts += [
-                    table(
-                        ["parameter", "value", "std. error", "unit", "meaning"],
-                        [
-                            [
-                                k,
-                                _f(v["value"], 4),
-                                _f(v["stderr"], 2),
-                                v["unit"],
-                                v.get("description", ""),
-                            ]
-                            for k, v in b["params"].items()
-                        ],
-                    ),
+                    f"### `{eff}`: {c['form']} ({c['target']}), "
+                    f"{100 * share:.0f} % of the explained error"
+                    if isinstance(share, float) and math.isfinite(share)
+                    else f"### `{eff}`: {c['form']} ({c['target']})",
                     "",
                 ]
+                if c.get("evidence"):
+                    parts += [f"*Residual signature:* {c['evidence']}.", ""]
+                if c.get("params"):
+                    parts += [params_table(c["params"]), ""]
+                base = c.get("baseline") or {}
+                if base:
+                    parts += [
+                        f"Beside it, a generic fix ({base.get('generic_fix', '')}): held-out "
+                        f"ΔIC {_f(base.get('delta_ic'), 4)} against this effect's "
+                        f"{_f(c.get('delta_ic'), 4)}"
+                        + (
+                            "."
+                            if base.get("physics_favoured", True)
+                            else ": **the evidence does not favour a physical explanation**."
+                        ),
+                        "",
+                    ]
+            if b.get("explanation"):
+                parts += [b["explanation"], ""]
+        elif b.get("effect") == "parameter_error":
+            parts += ["## Parameter error", "", b.get("explanation", ""), ""]
+            if self.parameters.get("parameters"):
+                parts += [params_table(self.parameters["parameters"]), ""]
+        elif b.get("effect") not in (None, "none"):
+            parts += [f"## `{b['effect']}`", "", b.get("explanation", ""), ""]
         parts += [
             "## Fit before and after (NRMSE, 1 = perfect)",
             "",

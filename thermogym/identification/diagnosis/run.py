@@ -1,39 +1,26 @@
-"""``diagnose``: detect, locate, explain, model and show a model mismatch.
+"""``diagnose``: a pipeline of named stages from a nominal model to the physics it misses.
 
-The six stages (issue "Mismatch diagnosis")::
+::
 
-    1 nominal   fit the nominal model on the training recordings (or take a FitResult)
-    2 detect    residual whiteness / input-independence tests + materiality, per output,
-                on training and validation data (residuals.py)
-    3 locate    signals, time windows, operating regimes carrying the error (locate.py)
-    4 explain   shortlist catalogued effects by their residual signature (effects.py),
-                fit each augmented model, rank by held-out improvement with a BIC penalty;
-                sparse regression of the residual dynamics when none explains it (sindy.py)
-    5 model     the winner as a FitResult (plant with its effect switched on, or the
-                registered ``augmented`` model)
-    6 show      fits before/after on training and held-out data, residual tests after,
-                figures (report.py, plots.py)
-
-Ranking. Each hypothesis ``h`` (``k_h`` extra parameters) is fitted on the
-training recordings with the nominal parameters refitted too; on the ``N``
-validation samples its weighted squared error ``S_h`` (outputs weighted by
-1/spread, as NRMSE) is compared with the nominal's ``S_0``::
-
-    ΔBIC_h = N ln(S_h / S_0) + k_h ln N          score_h = −ΔBIC_h
-    explained_h = (S_0 − S_h) / (S_0 − S_noise)   share of the systematic error removed
-
-``S_noise`` is the floor white measurement noise would leave. The winner has
-the highest score among hypotheses that improve the held-out fit beyond the
-penalty and remove at least ``min_explained`` of the systematic error.
-
-Held-out data. When the training recordings show no material mismatch but the
-validation recordings do (the model is right at the training operating point
-and wrong elsewhere — the situation of paper 000 section 4.1), the effect
-cannot be identified from the training data alone. ``scheme="auto"`` then
-cross-fits over the validation recordings: each is predicted by models fitted
-on the training recordings plus the *other* validation recordings (leave one
-out), so every reported held-out number is still out of sample; the final
-augmented model is fitted on all recordings.
+    nominal          resolve the model; estimate every recording's initial state; rank the
+                     parameters by identifiability; re-calibrate the identifiable ones from
+                     their given values and from points drawn in their bounds (nominal.py)
+    baseline         a plain second-order ARX on the same training data; a nominal model
+                     worse than it on held-out data is reported inadequate first
+    detection        residual whiteness / input-independence tests and materiality, per
+                     output, on training and held-out data (residuals.py); the AR noise
+                     model every later comparison uses (scoring.py)
+    location         outputs, time windows, operating regimes carrying the error (locate.py)
+    parameters       parameter or physics: the given parameters against the re-calibrated
+                     ones on held-out data (an information criterion under coloured noise)
+    hypotheses       the catalogue proposes every effect in each of its forms (effects.py)
+    selection        screening, joint refits, forward selection stopped by held-out
+                     improvement and the information criterion (select.py); a generic extra
+                     state with as many parameters beside each kept effect
+    identifiability  an interval for every reported parameter, or the experiment that
+                     would identify it (identify.py)
+    report           named effects, their forms and shares, fits before and after,
+                     the augmented model's FitResult (report.py)
 """
 
 from __future__ import annotations
@@ -41,389 +28,106 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym._checks import probability
 from thermogym.errors import ConfigError, RecordingError, UnknownNameError
 from thermogym.fitresult import FitResult, data_entry, load_fit
-from thermogym.identification.diagnosis.effects import (
-    CATALOGUE,
-    Candidate,
-    Context,
-    candidates_for,
-    signatures,
-)
+from thermogym.identification.diagnosis.context import Context, signatures
+from thermogym.identification.diagnosis.effects import CATALOGUE, candidates_for, generic_fix
 from thermogym.identification.diagnosis.fit import (
-    NOMINAL_SPECS,
-    Experiment,
-    FitOutcome,
     FitProblem,
-    fit_model,
     output_weights,
     prepare_experiments,
-    simulate_all,
 )
+from thermogym.identification.diagnosis.hypothesis import Hypothesis, NominalSpec
+from thermogym.identification.diagnosis.identify import intervals
 from thermogym.identification.diagnosis.locate import locate, regime_variables
+from thermogym.identification.diagnosis.nominal import (
+    arx_baseline,
+    calibrate,
+    calibration_set,
+    generic_bounds,
+    generic_start,
+    resolve_model,
+)
 from thermogym.identification.diagnosis.report import DiagnosisReport
 from thermogym.identification.diagnosis.residuals import noise_sigma, residual_tests
-from thermogym.identification.metrics import nrmse
-from thermogym.models.augmented import AugmentedModel
-from thermogym.models.base import Model
-from thermogym.models.fastnet import (
-    fast_or_none,
-    switched_or_none,
+from thermogym.identification.diagnosis.scoring import delta_ic, whitened_chi2
+from thermogym.identification.diagnosis.select import (
+    Data,
+    Selection,
+    fit_hypothesis,
+    forward_selection,
+    nrmse_table,
+    passes,
+    residuals_of,
+    score_self,
+    shares,
 )
-from thermogym.models.registry import get_model, model_names
+from thermogym.models.base import Model
 from thermogym.recording import Recording
+from thermogym.vocabulary import EFFECT_NAMES
 
-__all__ = ["diagnose", "resolve_model"]
+__all__ = ["STAGES", "diagnose", "resolve_model"]
 
 _MIN_SAMPLES = 10
-#: Training samples above which RK4-integrated hypotheses are screened first (see _explain).
-_SCREEN_SAMPLES = 2000
+#: The pipeline's stages, in order.
+STAGES = (
+    "nominal",
+    "baseline",
+    "detection",
+    "location",
+    "parameters",
+    "hypotheses",
+    "selection",
+    "identifiability",
+    "report",
+)
 
 
-# ------------------------------------------------------------------ the nominal model
-def _units_roles(rec: Recording, cols: Sequence[str]) -> dict[str, str]:
-    return {c: rec.units.get(c, "1") for c in cols}
+@dataclass
+class _Run:
+    """What the stages hand on to each other."""
 
-
-def resolve_model(
-    model: str | Model,
-    recording: Recording | None = None,
-    *,
-    model_config: Mapping[str, Any] | None = None,
-    inputs: Sequence[str] | None = None,
-    outputs: Sequence[str] | None = None,
-) -> tuple[Model, str, dict[str, Any]]:
-    """Build the nominal model from a name, a ``foptd`` / ``ss:ORDER`` spec or an instance.
-
-    Parameters
-    ----------
-    model : str or Model
-        A registered model (``axt211``, ``strut``, ...), ``foptd``, ``ss:ORDER``,
-        or a model instance.
-    recording : Recording, optional
-        Gives units and roles of the columns of a generic model.
-    model_config : mapping, optional
-        Constructor arguments of a registered model.
-    inputs, outputs : sequence of str
-        Columns of a generic model (``foptd``, ``ss:ORDER``): exogenous
-        columns (those with role ``disturbance`` in the recording become
-        disturbances) and outputs.
-
-    Returns
-    -------
-    model : Model
-    name : str
-    config : dict
-
-    Raises
-    ------
-    ConfigError
-        A generic model without ``inputs`` / ``outputs``, a bad order.
-    UnknownNameError
-        An unknown model name.
-    """
-    if isinstance(model, Model):
-        return model, model.name, model.config()
-    if not isinstance(model, str):
-        raise ConfigError(f"model is a {type(model).__name__}; expected a name or a Model")
-    name, _, order = model.partition(":")
-    if name in ("foptd", "ss"):
-        if not inputs or not outputs:
-            raise ConfigError(
-                f"model {model!r} is generic: name the recording's input columns and output "
-                "columns (inputs=..., outputs=...; --inputs COL,... --outputs COL,...)"
-            )
-        rec = recording
-        roles = dict(rec.roles) if rec is not None else {}
-        units = _units_roles(rec, [*inputs, *outputs]) if rec is not None else {}
-        dis = [c for c in inputs if roles.get(c) == "disturbance"]
-        ins = [c for c in inputs if c not in dis] or list(inputs[:1])
-        dis = [c for c in dis if c not in ins]
-        if name == "foptd":
-            cfg = {
-                "inputs": ins,
-                "outputs": list(outputs),
-                "disturbances": dis,
-                "units": units,
-                "offsets": True,
-            }
-            return get_model("foptd", **cfg), "foptd", cfg
-        try:
-            n = int(order or 1)
-        except ValueError:
-            raise ConfigError(
-                f"model {model!r}: the order after 'ss:' must be an integer"
-            ) from None
-        if n < 1:
-            raise ConfigError(f"model {model!r}: order {n} must be >= 1")
-        cfg = {
-            "base": "ss",
-            "base_config": {
-                "n_states": n,
-                "inputs": ins,
-                "outputs": list(outputs),
-                "disturbances": dis,
-                "units": units,
-                "steady_start": False,
-            },
-            "augmentations": [
-                {"effect": "sensor_offset", "signal": o, "bounds": {"offset": [-1e6, 1e6]}}
-                for o in outputs
-            ],
-        }
-        return AugmentedModel(**cfg), "augmented", cfg
-    if model_config:
-        m = get_model(name, **dict(model_config))
-    else:
-        m = get_model(name)
-    return m, name, m.config()
-
-
-def _nominal_problem(
-    model: Model,
-    name: str,
-    config: dict[str, Any],
-    train: list[Experiment],
-) -> tuple[list[str], dict[str, float], NDArray[np.float64], NDArray[np.float64], str]:
-    """Free parameters, fixed values, bounds and the initial-state policy of the nominal fit."""
-    spec = NOMINAL_SPECS.get(name, {})
-    fixed = {k: float(v) for k, v in spec.get("fixed", {}).items() if k in model.param_names}
-    x0 = spec.get("x0", "estimate")
-    if name in ("foptd", "augmented"):
-        # generic linear models predict deviations from each recording's first values
-        x0 = "initial"
-        for p in model.param_names:
-            if p.startswith(("y0_", "offset_")):
-                fixed[p] = float(model.nominal[model.param_index(p)])
-    free = list(spec.get("free") or [p for p in model.param_names if p not in fixed])
-    free = [p for p in free if p not in fixed]
-    idx = [model.param_index(p) for p in free]
-    lo, hi = model.lower[idx].copy(), model.upper[idx].copy()
-    return free, fixed, lo, hi, x0
-
-
-def _generic_start(model: Model, name: str, train: list[Experiment]) -> NDArray[np.float64]:
-    """Data-based start values of a generic model (FOPTD: step-response estimates)."""
-    th = model.nominal.copy()
-    base = model.base if isinstance(model, AugmentedModel) else model
-    y = np.concatenate([e.y for e in train])
-    u = np.concatenate([e.u for e in train])
-    dur = sum(e.n * e.dt for e in train) / len(train)
-    for j, o in enumerate(train[0].outputs):
-        y0 = float(np.nanmedian([e.y[0, j] for e in train]))
-        for pname in (f"y0_{o}", f"offset_{o}"):
-            if pname in model.param_names:
-                th[model.param_index(pname)] = y0
-        for i, c in enumerate(base.exogenous_names):
-            du = float(np.nanmax(u[:, i]) - np.nanmin(u[:, i]))
-            dy = float(np.nanmax(y[:, j]) - np.nanmin(y[:, j]))
-            tag = o if len(base.exogenous_names) == 1 else f"{o}__{c}"
-            if f"K_{tag}" in model.param_names:
-                th[model.param_index(f"K_{tag}")] = (dy / du if du > 0 else 0.0) * (
-                    1.0 if i == 0 else 0.1
-                )
-                th[model.param_index(f"T_{tag}")] = max(dur / 5.0, train[0].dt)
-    return th
-
-
-def _refine_bounds(model: Model, free: Sequence[str], theta: NDArray[np.float64], lo, hi, train):
-    """Finite, data-scaled bounds for generic linear parameters."""
-    lo, hi = lo.copy(), hi.copy()
-    dur = max(e.n * e.dt for e in train)
-    dt = min(e.dt for e in train)
-    for i, p in enumerate(free):
-        v = theta[model.param_index(p)]
-        if p.startswith("T_"):
-            lo[i], hi[i] = max(dt / 10, 1e-3), 20 * dur
-        elif p.startswith("tau_"):
-            lo[i], hi[i] = 0.0, 0.5 * dur
-        elif p.startswith(("y0_", "offset_")):
-            lo[i], hi[i] = v - 1e3 - 10 * abs(v), v + 1e3 + 10 * abs(v)
-        elif p.startswith(("K_", "B_", "C_", "D_")):
-            w = 100 * abs(v) + 10.0
-            lo[i], hi[i] = v - w, v + w
-        elif p.startswith("A_"):
-            r, c = p.split("_")[1:3]
-            lo[i], hi[i] = (-0.5, 0.99999) if r == c else (-1.0, 1.0)
-    return lo, hi
-
-
-def _ss_n4sid_start(
-    model: AugmentedModel, train: list[Experiment]
-) -> tuple[NDArray[np.float64], dict[str, float]] | None:
-    """State-space start from N4SID (paper 001) when it succeeds on the training data."""
-    try:
-        from thermogym.identification.n4sid import n4sid
-
-        base = model.base
-        # N4SID needs excitation: recordings whose exogenous signals all vary
-        usable = [e.recording for e in train if np.all(np.ptp(e.u, axis=0) > 0)]
-        res = n4sid(
-            usable,
-            list(base.exogenous_names),
-            list(base.output_names),
-            order=base.n_states,
-            disturbances=[s.name for s in base.disturbances],
-            noise_model=False,
-            operating_point_mode="initial",
-        )
-        mats = res.system
-        A, B, C = np.asarray(mats.A), np.asarray(mats.B), np.asarray(mats.C)
-    except Exception:  # no N4SID in this build, or it failed on these data: modal start
-        return None
-    if A.shape != (base.n_states, base.n_states) or not np.isfinite(A).all():
-        return None
-    if np.max(np.abs(np.linalg.eigvals(A))) >= 1.0:
-        return None
-    th = model.nominal.copy()
-    for name, M in (("A", A), ("B", B), ("C", C)):
-        for r in range(M.shape[0]):
-            for c in range(M.shape[1]):
-                th[model.param_index(f"{name}_{r}_{c}")] = M[r, c]
-    return th, {}
-
-
-def _ss_start(
-    model: AugmentedModel, train: list[Experiment]
-) -> tuple[NDArray[np.float64], dict[str, float]]:
-    """State-space start in modal form and the entries that stay fixed.
-
-    Real poles ``a_i`` spread logarithmically over the data's time scales (a
-    thermal plant is overdamped), ``A`` diagonal, ``B[i, 0] = 1 − a_i`` (each
-    mode has unit DC gain from the first input: fixes the scale between ``B``
-    and ``C``); ``C`` and the other columns of ``B`` by linear regression of
-    the outputs' rise on the mode responses. The off-diagonal entries of ``A``
-    and the first column of ``B`` are held (the modal form is unique up to
-    their order); every other entry is fitted.
-    """
-    base = model.base
-    n, m = base.n_states, base.n_inputs
-    dt = train[0].dt
-    dur = sum(e.n * e.dt for e in train) / len(train)
-    taus = np.geomspace(max(5 * dt, dur / 200), dur / 3, n)
-    a = np.exp(-dt / taus)
-    th = model.nominal.copy()
-    fixed: dict[str, float] = {}
-    for i in range(n):
-        th[model.param_index(f"A_{i}_{i}")] = a[i]
-        for c in range(n):
-            if c != i:
-                fixed[f"A_{i}_{c}"] = 0.0
-        fixed[f"B_{i}_0"] = 1.0 - a[i]
-        th[model.param_index(f"B_{i}_0")] = 1.0 - a[i]
-    X_parts, Y_parts = [], []
-    for e in train:
-        xs = np.zeros((e.n, n * m))
-        for i in range(n):
-            for c in range(m):
-                x = np.zeros(e.n)
-                for k in range(1, e.n):
-                    x[k] = a[i] * x[k - 1] + (1 - a[i]) * e.u[k - 1, c]
-                xs[:, i * m + c] = x
-        X_parts.append(xs)
-        Y_parts.append(e.y - e.y[:1])
-    X, Y = np.concatenate(X_parts), np.concatenate(Y_parts)
-    for j in range(Y.shape[1]):
-        ok = np.isfinite(Y[:, j])
-        coef, *_ = np.linalg.lstsq(X[ok], Y[ok, j], rcond=None)
-        for i in range(n):
-            th[model.param_index(f"C_{j}_{i}")] = coef[i * m]
-            if j == 0:
-                for c in range(1, m):
-                    ratio = coef[i * m + c] / coef[i * m] if abs(coef[i * m]) > 1e-12 else 0.0
-                    th[model.param_index(f"B_{i}_{c}")] = ratio * (1 - a[i])
-    return th, fixed
-
-
-# ------------------------------------------------------------------ helpers
-def _nrmse_table(
-    outputs: Sequence[str], ys: Sequence[NDArray], sims: Sequence[NDArray]
-) -> dict[str, float]:
-    if not ys:
-        return {}
-    Y = np.concatenate(ys)
-    S = np.concatenate(sims)
-    out = {o: float(nrmse(Y[:, j], S[:, j])) for j, o in enumerate(outputs)}
-    vals = [v for v in out.values() if math.isfinite(v)]
-    out["mean"] = float(np.mean(vals)) if vals else math.nan
-    return out
-
-
-def _wsse(ys, sims, w) -> tuple[float, int]:
-    s, n = 0.0, 0
-    for y, yh in zip(ys, sims, strict=True):
-        e = (y - yh) * w[None, :]
-        ok = np.isfinite(e)
-        s += float(np.sum(e[ok] ** 2))
-        n += int(ok.sum())
-    return s, n
-
-
-def _tests(outputs, exps, sims, alpha, max_lag, inputs) -> dict[str, Any]:
-    out = {}
-    for j, o in enumerate(outputs):
-        res = [e.y[:, j] - s[:, j] for e, s in zip(exps, sims, strict=True)]
-        ins = [{c: e.u[:, i] for i, c in enumerate(inputs)} for e in exps]
-        out[o] = residual_tests(
-            res, ins, signal=o, measured=[e.y[:, j] for e in exps], max_lag=max_lag, alpha=alpha
-        )
-    return out
-
-
-def _significant(t, alpha_adj, min_snr, min_rel) -> bool:
-    stat = t.p_white < alpha_adj or any(p < alpha_adj for p in t.p_independent.values())
-    return bool(stat and t.material(min_snr, min_rel))
-
-
-def _build_fit(
-    model: Model,
-    theta: NDArray[np.float64],
-    outcome: FitOutcome | None,
-    free: Sequence[str],
-    bounds: dict[str, tuple[float, float]],
-    *,
-    method: str,
-    settings: dict[str, Any],
-    metrics: dict[str, Any],
-    data: list[dict[str, Any]],
-    notes: str,
-) -> FitResult:
-    stderr = {p: math.nan for p in model.param_names}
-    cov, cov_names = None, []
-    if outcome is not None:
-        stderr.update({p: v for p, v in outcome.stderr.items() if p in stderr})
-        if outcome.covariance is not None:
-            cov = np.asarray(outcome.covariance).tolist()
-            cov_names = list(outcome.free)
-    b = {p.name: [p.lower, p.upper] for p in model.parameters}
-    for p, (lo, hi) in bounds.items():
-        if p in b:
-            b[p] = [float(lo), float(hi)]
-    # a fitted value may sit outside the model's declared bounds only if the fit widened them
-    th = np.asarray(theta, dtype=float).reshape(-1)
-    for i, p in enumerate(model.param_names):
-        lo, hi = b[p]
-        b[p] = [min(lo, float(th[i])), max(hi, float(th[i]))]
-    return FitResult.from_model(
-        model,
-        th,
-        stderr=stderr,
-        covariance=cov,
-        covariance_names=cov_names,
-        bounds=b,
-        fixed=[p for p in model.param_names if p not in free],
-        method=method,
-        settings=settings,
-        metrics=metrics,
-        data=data,
-        notes=notes,
-    )
+    opts: dict[str, Any]
+    say: Callable[[str], None]
+    t0: float
+    tr_list: list[Recording]
+    va_list: list[Recording]
+    model: Model | None = None
+    spec: NominalSpec | None = None
+    generic: bool = False
+    outs: list[str] = field(default_factory=list)
+    tr: list[Any] = field(default_factory=list)
+    va: list[Any] = field(default_factory=list)
+    weights: NDArray[np.float64] | None = None
+    x0: str = "estimate"
+    given: NDArray[np.float64] | None = None
+    given_fixed: set[str] = field(default_factory=set)
+    bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    calibrated: list[str] = field(default_factory=list)
+    idf_table: dict[str, Any] = field(default_factory=dict)
+    method: str = ""
+    nominal: Hypothesis | None = None
+    given_h: Hypothesis | None = None
+    arx: dict[str, Any] = field(default_factory=dict)
+    data: Data | None = None
+    tests: dict[str, Any] = field(default_factory=dict)
+    detected: bool = False
+    train_material: bool = False
+    sigma: dict[str, float] = field(default_factory=dict)
+    located: dict[str, Any] = field(default_factory=dict)
+    regs: list[Any] = field(default_factory=list)
+    parameters: dict[str, Any] = field(default_factory=dict)
+    ctx: Context | None = None
+    candidates: list[Any] = field(default_factory=list)
+    selection: Selection | None = None
+    notes: list[str] = field(default_factory=list)
+    seconds: dict[str, float] = field(default_factory=dict)
 
 
 # ------------------------------------------------------------------ diagnose
@@ -442,13 +146,14 @@ def diagnose(
     max_lag: int = 25,
     min_snr: float = 0.5,
     min_rel: float = 0.002,
-    min_explained: float = 0.25,
     scheme: str = "auto",
-    max_candidates: int = 12,
+    max_effects: int = 3,
+    max_candidates: int | None = None,
     max_nfev: int = 25,
     sparse: bool = True,
     time_limit: float | None = None,
     progress: Callable[[str], None] | None = None,
+    min_explained: float | None = None,
 ) -> DiagnosisReport:
     """Locate a model mismatch, name the missing physics, model it, show the fit improve.
 
@@ -457,48 +162,51 @@ def diagnose(
     model : str or Model
         The nominal model: a registered thermogym model (``axt211``,
         ``strut``, ``spindle``, ...), ``foptd`` or ``ss:ORDER`` for any
-        recording (with ``inputs`` and ``outputs``), or a model instance.
+        recording (with ``inputs`` and ``outputs``), or a model instance
+        (a user's own :class:`~thermogym.models.base.Model`).
     train : Recording or sequence
         Training recordings (uniformly sampled; slightly uneven time stamps
         are resampled).
     validate : Recording or sequence
         Held-out recordings, at least one.
     params : FitResult, path or dict, optional
-        Nominal parameters; the nominal model is fitted on ``train`` when
-        omitted.
+        Given parameters of the nominal model (its design values when
+        omitted); a FitResult's operating point is honoured. The identifiable
+        ones are re-calibrated on ``train``; whether that was needed is the
+        ``parameter_error`` question.
     model_config : mapping, optional
         Constructor arguments of a registered model.
     inputs, outputs : sequence of str, optional
         Generic models: exogenous and output columns. Plant models: the
         outputs to compare (default: every model output in the recordings).
     candidates : sequence of str, optional
-        Effects to consider (default: every applicable effect).
+        Effects to consider (default: every effect of the vocabulary).
     dt : float, optional
-        Average the recordings onto this period [s] first (slow thermal data
-        at 1 Hz: e.g. 60 s).
+        Average the recordings onto this period [s] first.
     alpha : float
-        Significance level of the residual tests (Bonferroni-corrected over
-        outputs and tests).
+        Significance level of the residual tests (Bonferroni over outputs and tests).
     max_lag : int
         Lags of the residual tests [samples].
     min_snr, min_rel : float
-        Materiality: the systematic residual must reach ``min_snr`` × the
-        noise level and ``min_rel`` × the output's spread.
-    min_explained : float
-        Least share of the systematic held-out error a winner must remove.
+        Materiality of a mismatch: systematic residual at least ``min_snr`` ×
+        the noise level and ``min_rel`` × the output's spread.
     scheme : {"auto", "split", "crossfit"}
-        How hypotheses are scored on held-out data (module docstring).
-    max_candidates : int
-        Most hypotheses fitted (by signature score).
+        How hypotheses are scored on held-out data (:mod:`.select`).
+    max_effects : int
+        Most effects a combination holds.
+    max_candidates : int, optional
+        Most candidates screened (highest signature score first; default all).
     max_nfev : int
-        Cost evaluations per hypothesis fit.
+        Cost evaluations of a joint refit.
     sparse : bool
-        Try the sparse-regression fallback when no catalogued effect explains
-        the mismatch.
+        Try a sparse regression of the residual's dynamics when nothing in
+        the catalogue explains a mismatch.
     time_limit : float, optional
         Seconds after which no further hypothesis is started.
     progress : callable, optional
         Called with a line of text at each stage.
+    min_explained : float, optional
+        Ignored (the information criterion decides); kept for old callers.
 
     Returns
     -------
@@ -518,10 +226,10 @@ def diagnose(
     >>> recs = run_experiment("strut", "steps", seed=0,
     ...                       effects=["sensor_offset:signal=T_nut,offset=1.0"])
     >>> rep = diagnose("strut", recs[:1], recs[1:])
-    >>> rep.mismatch_detected, rep.best["effect"], rep.best["target"]
-    (True, 'sensor_offset', 'T_nut')
+    >>> rep.named_effects[0], rep.best["target"]
+    ('sensor_offset', 'T_nut')
     """
-    t_start = time.perf_counter()
+    del min_explained
     say = progress or (lambda s: None)
     tr_list = [train] if isinstance(train, Recording) else list(train or [])
     va_list = [validate] if isinstance(validate, Recording) else list(validate or [])
@@ -534,150 +242,333 @@ def diagnose(
         )
     if scheme not in ("auto", "split", "crossfit"):
         raise ConfigError(f"scheme is {scheme!r}; expected 'auto', 'split' or 'crossfit'")
-    alpha = probability("alpha", alpha, error=ConfigError)  # a test level in (0, 1)
     if candidates is not None:
-        unknown = [c for c in candidates if c not in CATALOGUE or c == "none"]
+        unknown = [c for c in candidates if c not in CATALOGUE or c in ("none", "parameter_error")]
         if unknown:
             raise UnknownNameError(
                 f"unknown effect(s) {unknown}; the vocabulary is "
-                f"{[k for k in CATALOGUE if k != 'none']}"
+                f"{[k for k in CATALOGUE if k not in ('none', 'parameter_error')]}"
             )
-    nominal, name, config = resolve_model(
-        model, tr_list[0], model_config=model_config, inputs=inputs, outputs=outputs
+    if not (isinstance(max_effects, int) and max_effects >= 1):
+        raise ConfigError(f"max_effects is {max_effects!r}; expected a whole number >= 1")
+    opts = dict(
+        params=params,
+        model_config=model_config,
+        inputs=inputs,
+        outputs=outputs,
+        candidates=candidates,
+        dt=dt,
+        alpha=alpha,
+        max_lag=max_lag,
+        min_snr=min_snr,
+        min_rel=min_rel,
+        scheme=scheme,
+        max_effects=max_effects,
+        max_candidates=max_candidates,
+        max_nfev=max_nfev,
+        sparse=sparse,
+        time_limit=time_limit,
+        model=model,
     )
+    st = _Run(opts, say, time.perf_counter(), tr_list, va_list)
+    for name in STAGES:
+        t = time.perf_counter()
+        out = _STAGE_FUNCS[name](st)
+        st.seconds[name] = time.perf_counter() - t
+        if isinstance(out, DiagnosisReport):
+            return out
+    raise AssertionError("the report stage returns the report")  # pragma: no cover
+
+
+# ------------------------------------------------------------------ stage: nominal
+def _check_inputs(st: _Run) -> None:
+    o = st.opts
+    model = o["model"]
     generic = isinstance(model, str) and model.partition(":")[0] in ("foptd", "ss")
-    for i, r in enumerate([*tr_list, *va_list]):
+    if generic and o["params"] is not None and not (o["inputs"] and o["outputs"]):
+        # the columns of a given generic FitResult are its own
+        cfg = load_fit(o["params"]).model_config
+        cfg = cfg.get("base_config", cfg) if "base" in cfg else cfg
+        o["inputs"] = o["inputs"] or [*cfg.get("inputs", []), *cfg.get("disturbances", [])]
+        o["outputs"] = o["outputs"] or list(cfg.get("outputs", []))
+    nominal, spec = resolve_model(
+        model,
+        st.tr_list[0],
+        model_config=o["model_config"],
+        inputs=o["inputs"],
+        outputs=o["outputs"],
+    )
+    st.generic = isinstance(model, str) and model.partition(":")[0] in ("foptd", "ss")
+    for i, r in enumerate([*st.tr_list, *st.va_list]):
         if not isinstance(r, Recording):
             raise RecordingError(
                 f"item {i} of the recordings is a {type(r).__name__}; expected a Recording "
                 "(read files with thermogym.recording.read_recording)"
             )
         r.validate_for(nominal, outputs=False)  # names the columns a recording of this model needs
-    outs = [o for o in (outputs or nominal.output_names) if o in nominal.output_names]
-    if outputs and not generic:
-        bad = [o for o in outputs if o not in nominal.output_names]
+    outputs = o["outputs"]
+    if outputs and not st.generic:
+        bad = [x for x in outputs if x not in nominal.output_names]
         if bad:
             raise UnknownNameError(
                 f"{bad} are not outputs of model {nominal.name!r}; outputs are "
                 f"{list(nominal.output_names)}"
             )
+    outs = [x for x in (outputs or nominal.output_names) if x in nominal.output_names]
     if not outputs:
-        outs = [o for o in nominal.output_names if all(o in r.columns for r in tr_list + va_list)]
+        outs = [
+            x for x in nominal.output_names if all(x in r.columns for r in st.tr_list + st.va_list)
+        ]
     if not outs:
         raise RecordingError(
             f"the recordings hold none of the outputs of model {nominal.name!r} "
-            f"({list(nominal.output_names)}); columns are {list(tr_list[0].columns)}: are they "
+            f"({list(nominal.output_names)}); columns are {list(st.tr_list[0].columns)}: are they "
             "recordings of another plant?"
         )
-    # the model as the caller named it ('ss:3'), not its internal wrapper ('augmented')
-    shown = model if isinstance(model, str) else name
-    say(f"model {shown}: outputs {outs}")
-    # generic linear models see measured disturbances as deviations from their first value
-    # (the operating point), manipulated inputs as they are (at rest: zero before the start)
-    dev = [s.name for s in nominal.disturbances] if generic else []
-    tr = prepare_experiments(nominal, tr_list, outs, dt=dt, what="training", deviation=dev)
-    va = prepare_experiments(nominal, va_list, outs, dt=dt, what="validation", deviation=dev)
-    for e in [*tr, *va]:
+    if st.generic and o["params"] is None:
+        # operating point: the training data's mean exogenous values (model column order)
+        u = np.concatenate([r.exogenous_array(nominal) for r in st.tr_list])
+        spec.base_config["u_op"] = np.nanmean(u, axis=0).tolist()
+        nominal = spec.build()
+    st.model, st.spec, st.outs = nominal, spec, outs
+
+
+def _stage_nominal(st: _Run) -> None:
+    _check_inputs(st)
+    o = st.opts
+    model, spec, outs = st.model, st.spec, st.outs
+    assert model is not None and spec is not None
+    st.say(f"model {spec.name}: outputs {outs}")
+    st.tr = prepare_experiments(model, st.tr_list, outs, dt=o["dt"], what="training")
+    st.va = prepare_experiments(model, st.va_list, outs, dt=o["dt"], what="validation")
+    for e in [*st.tr, *st.va]:
         if e.n < _MIN_SAMPLES:
             raise RecordingError(
                 f"recording {e.name!r} has {e.n} samples; diagnosis needs at least "
                 f"{_MIN_SAMPLES} per recording (too short to fit or validate)"
             )
-    notes = [n for e in tr + va for n in e.notes]
-    weights = output_weights(tr)
-
-    # ---- 1 nominal
-    free, fixed, lo, hi, x0 = _nominal_problem(nominal, name, config, tr)
-    theta0 = nominal.nominal.copy()
-    for k, v in fixed.items():
-        theta0[nominal.param_index(k)] = v
-    nominal_outcome: FitOutcome | None = None
-    if params is not None:
-        fit_in = load_fit(params)
-        if fit_in.model != name:
-            hint = (
-                f"; the nominal model of {shown!r} is fitted here when params (--params) is "
-                "left out, or give the augmented FitResult (--augmented-fit) of an earlier "
-                f"diagnosis with {shown!r}"
-                if generic and name == "augmented"
-                else f"; give a FitResult of {shown!r} or leave out params (--params)"
-            )
-            raise ConfigError(
-                f"the FitResult (params, --params) is for model {fit_in.model!r}, not for the "
-                f"diagnosed model {shown!r}{hint}"
-            )
-        nominal = fit_in.build_model()
-        theta0 = fit_in.theta(nominal)[0]
-        fixed = {
-            p: float(theta0[nominal.param_index(p)])
-            for p in fit_in.fixed
-            if p in nominal.param_names
-        }
-        free = [p for p in nominal.param_names if p not in fixed]
-        idx = [nominal.param_index(p) for p in free]
-        lo, hi = nominal.lower[idx], nominal.upper[idx]
-        config = nominal.config()
-        method = "given"
+    st.notes += [n for e in st.tr + st.va for n in e.notes]
+    st.weights = output_weights(st.tr)
+    # ---- the given parameters
+    given = model.nominal.copy()
+    fixed: set[str] = set()
+    if o["params"] is not None:
+        given, fixed, model, spec = _given(o["params"], model, spec, st)
+        st.model, st.spec = model, spec
+        st.method = "given, re-calibrated"
+    elif st.generic:
+        given = generic_start(model, st.tr)
+        st.method = "identified (generic model)"
     else:
-        if generic:
-            if name == "augmented":
-                theta0, more = _ss_n4sid_start(nominal, tr) or _ss_start(nominal, tr)
-                fixed.update(more)
-                free = [p for p in free if p not in fixed]
-                idx = [nominal.param_index(p) for p in free]
-                lo, hi = nominal.lower[idx].copy(), nominal.upper[idx].copy()
-            else:
-                theta0 = _generic_start(nominal, name, tr)
-            lo, hi = _refine_bounds(nominal, free, theta0, lo, hi, tr)
-            theta0[[nominal.param_index(p) for p in free]] = np.clip(
-                theta0[[nominal.param_index(p) for p in free]], lo, hi
-            )
-        n_free = len(free)
-        n_obs = sum(e.n * len(outs) for e in tr)
-        if n_obs < 5 * max(n_free, 1):
-            raise RecordingError(
-                f"the training recordings hold {n_obs} output samples for {n_free} parameters; "
-                "too short to fit the nominal model (need at least 5 per parameter)"
-            )
-        say(f"fitting the nominal model ({n_free} parameters) on {len(tr)} recording(s)")
-        pb = FitProblem(nominal, free, theta0, lo, hi, tr, weights, x0)
-        nominal_outcome = fit_model(pb, max_nfev=max(max_nfev, 60) if not generic else 200)
-        theta0 = nominal_outcome.theta
-        method = "least_squares"
-    bounds_nom = {p: (float(a), float(b)) for p, a, b in zip(free, lo, hi, strict=True)}
+        st.method = "design values, re-calibrated"
+    st.given_fixed = fixed
+    cands = [p for p in model.param_names if p not in fixed]
+    if st.generic:
+        lo, hi = generic_bounds(model, cands, given, st.tr)
+    else:
+        idx = [model.param_index(p) for p in cands]
+        lo, hi = model.lower[idx].copy(), model.upper[idx].copy()
+        # a given value outside the declared range widens it (the FitResult's own bounds)
+        g = given[idx]
+        lo, hi = np.minimum(lo, g), np.maximum(hi, g)
+    given[[model.param_index(p) for p in cands]] = np.clip(
+        given[[model.param_index(p) for p in cands]], lo, hi
+    )
+    st.bounds = {p: (float(a), float(b)) for p, a, b in zip(cands, lo, hi, strict=True)}
+    st.given = given.copy()
+    n_obs = sum(e.n * len(outs) for e in st.tr)
+    # ---- which parameters the training data identify
+    if st.generic:
+        sel, table = list(cands), {}
+    else:
+        sel, table = calibration_set(model, given, cands, lo, hi, st.tr, st.weights, st.x0)
+    if n_obs < 5 * max(len(sel), 1):
+        raise RecordingError(
+            f"the training recordings hold {n_obs} output samples for {len(sel)} parameters; "
+            "too short to fit the nominal model (need at least 5 per parameter)"
+        )
+    st.calibrated, st.idf_table = sel, table
+    st.say(f"re-calibrating {len(sel)} identifiable parameter(s) of {len(cands)}: {sel}")
+    sel_lo = np.array([st.bounds[p][0] for p in sel])
+    sel_hi = np.array([st.bounds[p][1] for p in sel])
+    deadline = None if o["time_limit"] is None else st.t0 + o["time_limit"]
+    out = calibrate(
+        model,
+        given,
+        sel,
+        sel_lo,
+        sel_hi,
+        st.tr,
+        st.weights,
+        st.x0,
+        n_random=6 if not st.generic else 4,
+        max_nfev=max(o["max_nfev"], 60) if not st.generic else 150,
+        deadline=deadline,
+    )
+    h = Hypothesis(
+        candidates=(),
+        model=model,
+        free=tuple(sel),
+        bounds={p: st.bounds[p] for p in sel},
+        theta=out.theta.copy(),
+        outcome=out,
+    )
+    pb = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.tr, st.weights, st.x0)
+    h.sims_train = [pb.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.tr))]
+    pv = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.va, st.weights, st.x0)
+    h.sims_val = [pv.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.va))]
+    st.nominal = h
 
-    # ---- 2 detect
-    sims_tr = simulate_all(nominal, theta0, tr, x0)
-    sims_va = simulate_all(nominal, theta0, va, x0)
-    exo = list(nominal.exogenous_names)
-    tests_tr = _tests(outs, tr, sims_tr, alpha, max_lag, exo)
-    tests_va = _tests(outs, va, sims_va, alpha, max_lag, exo)
-    alpha_adj = alpha / (len(outs) * (1 + len(exo)))
-    sig_tr = {o: _significant(t, alpha_adj, min_snr, min_rel) for o, t in tests_tr.items()}
-    sig_va = {o: _significant(t, alpha_adj, min_snr, min_rel) for o, t in tests_va.items()}
-    detected = any(sig_tr.values()) or any(sig_va.values())
-    say(
-        "mismatch: "
-        + (", ".join(o for o in outs if sig_tr[o] or sig_va[o]) if detected else "none significant")
+
+def _given(params, model, spec, st):
+    """Parameters of a given FitResult, in the nominal model (its operating point kept)."""
+    fit = load_fit(params)
+    built = fit.build_model()
+    name = spec.name.split(":")[0]
+    if fit.model == model.name or (fit.model == "augmented" and model.name == "augmented"):
+        theta = fit.theta(built)[0]
+        return (
+            np.asarray(theta, dtype=float),
+            {p for p in fit.fixed if p in built.param_names},
+            built,
+            _spec_of(built, spec),
+        )
+    if name in ("ss", "foptd") and fit.model == name:
+        # a FitResult of the generic model itself: wrapped with the diagnosis' output offsets
+        new_spec = NominalSpec(name, dict(fit.model_config), list(spec.augmentations), spec.name)
+        m = new_spec.build()
+        th = m.nominal.copy()
+        for p, v in zip(built.param_names, fit.theta(built)[0], strict=True):
+            th[m.param_index(p)] = v
+        for p in m.param_names:
+            if p.startswith("offset_"):
+                th[m.param_index(p)] = 0.0  # the FitResult's y_op carries the level
+        return th, {p for p in fit.fixed if p in built.param_names}, m, new_spec
+    raise ConfigError(
+        f"the FitResult is for model {fit.model!r}; the diagnosis model is {spec.name!r}"
     )
 
-    # ---- 3 locate
-    all_exps = [*tr, *va]
-    roles = ["train"] * len(tr) + ["validation"] * len(va)
-    all_sims = [*sims_tr, *sims_va]
-    units = {s.name: s.unit for s in nominal.signals}
+
+def _spec_of(model: Model, spec: NominalSpec) -> NominalSpec:
+    from thermogym.models.augmented import AugmentedModel
+
+    if isinstance(model, AugmentedModel):
+        cfg = model.config()
+        return NominalSpec(cfg["base"], cfg["base_config"], cfg["augmentations"], spec.name)
+    return NominalSpec(model.name, model.config(), [], spec.name) if spec.registered else spec
+
+
+# ------------------------------------------------------------------ stage: baseline
+def _stage_baseline(st: _Run) -> None:
+    try:
+        arx = arx_baseline(st.tr, st.va)
+    except Exception as e:  # a baseline that cannot be fitted is said, not fatal
+        st.arx = {"error": f"{type(e).__name__}: {e}"}
+        return
+    fit = nrmse_table(st.outs, [e.y for e in st.va], arx["sims"])
+    nom = nrmse_table(st.outs, [e.y for e in st.va], st.nominal.sims_val)
+    st.arx = {
+        "model": "ARX(2, 2), one intercept, per output (least squares, simulated)",
+        "n_params": arx["n_params"],
+        "validation": fit,
+        "nominal_validation": nom,
+        "nominal_adequate": not (fit.get("mean", -math.inf) > nom.get("mean", math.nan)),
+        "sims": arx["sims"],
+    }
+    if not st.arx["nominal_adequate"]:
+        st.say(
+            f"nominal model inadequate: held-out mean NRMSE {nom['mean']:.3f} against a plain "
+            f"ARX's {fit['mean']:.3f}"
+        )
+
+
+# ------------------------------------------------------------------ stage: detection
+def _tests(outputs, exps, sims, alpha, max_lag, inputs) -> dict[str, Any]:
+    out = {}
+    for j, o in enumerate(outputs):
+        res = [e.y[:, j] - s[:, j] for e, s in zip(exps, sims, strict=True)]
+        ins = [{c: e.u[:, i] for i, c in enumerate(inputs)} for e in exps]
+        out[o] = residual_tests(
+            res, ins, signal=o, measured=[e.y[:, j] for e in exps], max_lag=max_lag, alpha=alpha
+        )
+    return out
+
+
+def _significant(t, alpha_adj, min_snr, min_rel) -> bool:
+    stat = t.p_white < alpha_adj or any(p < alpha_adj for p in t.p_independent.values())
+    return bool(stat and t.material(min_snr, min_rel))
+
+
+def _stage_detection(st: _Run) -> None:
+    o = st.opts
+    h = st.nominal
+    exo = list(st.model.exogenous_names)
+    tests_tr = _tests(st.outs, st.tr, h.sims_train, o["alpha"], o["max_lag"], exo)
+    tests_va = _tests(st.outs, st.va, h.sims_val, o["alpha"], o["max_lag"], exo)
+    alpha_adj = o["alpha"] / (len(st.outs) * (1 + len(exo)))
+    sig_tr = {
+        x: _significant(t, alpha_adj, o["min_snr"], o["min_rel"]) for x, t in tests_tr.items()
+    }
+    sig_va = {
+        x: _significant(t, alpha_adj, o["min_snr"], o["min_rel"]) for x, t in tests_va.items()
+    }
+    st.detected = any(sig_tr.values()) or any(sig_va.values())
+    st.train_material = any(sig_tr.values())
+    st.tests = {
+        "train": tests_tr,
+        "validation": tests_va,
+        "sig_tr": sig_tr,
+        "sig_va": sig_va,
+        "alpha_adj": alpha_adj,
+    }
+    use = o["scheme"]
+    if use == "auto":
+        use = "crossfit" if (st.detected and not st.train_material and len(st.va) >= 2) else "split"
+    if use == "crossfit" and len(st.va) < 2:
+        raise ConfigError("scheme 'crossfit' needs at least two validation recordings")
+    deadline = None if o["time_limit"] is None else st.t0 + o["time_limit"]
+    st.data = Data(
+        st.tr, st.va, st.weights, st.x0, o["alpha"], use, o["max_nfev"], deadline, st.say
+    )
+    # the nominal's own scores (the reference of every comparison)
+    score_self(h, st.data)
+    if use == "crossfit":
+        # the nominal's held-out predictions from the folds, like every hypothesis'
+        ref = fit_hypothesis(st.spec, h, None, st.data, h)
+        if ref.ok:
+            h.sims_val = ref.sims_val
+            score_self(h, st.data)
+    st.say(
+        "mismatch: "
+        + (
+            ", ".join(x for x in st.outs if sig_tr[x] or sig_va[x])
+            if st.detected
+            else "none significant"
+        )
+    )
+
+
+# ------------------------------------------------------------------ stage: location
+def _stage_location(st: _Run) -> None:
+    h = st.nominal
+    all_exps = [*st.tr, *st.va]
+    roles = ["train"] * len(st.tr) + ["validation"] * len(st.va)
+    all_sims = [*h.sims_train, *h.sims_val]
+    units = {s.name: s.unit for s in st.model.signals}
+    exo = list(st.model.exogenous_names)
     sigma = {}
-    for j, o in enumerate(outs):
+    for j, o in enumerate(st.outs):
         vals = [noise_sigma(e.y[:, j] - s[:, j]) for e, s in zip(all_exps, all_sims, strict=True)]
         vals = [v for v in vals if math.isfinite(v)]
         sigma[o] = float(np.sqrt(np.mean(np.square(vals)))) if vals else math.nan
-    scale = {o: 1.0 / float(weights[j]) for j, o in enumerate(outs)}
-    regs = regime_variables(
+    st.sigma = sigma
+    scale = {o: 1.0 / float(st.weights[j]) for j, o in enumerate(st.outs)}
+    st.regs = regime_variables(
         [e.name for e in all_exps],
         roles,
         units,
         [(c, [e.u[:, i] for e in all_exps]) for i, c in enumerate(exo)],
-        [(o, [s[:, j] for s in all_sims]) for j, o in enumerate(outs)],
+        [(o, [s[:, j] for s in all_sims]) for j, o in enumerate(st.outs)],
         [e.dt for e in all_exps],
         [e.time for e in all_exps],
     )
@@ -692,513 +583,509 @@ def diagnose(
         }
         for e, r, s in zip(all_exps, roles, all_sims, strict=True)
     ]
-    located = locate(outs, recs_loc, regs, sigma, scale)
+    st.located = locate(st.outs, recs_loc, st.regs, sigma, scale)
+    floor = sum(
+        float(st.weights[j] ** 2)
+        * sigma[o] ** 2
+        * sum(int(np.isfinite(e.y[:, j]).sum()) for e in st.va)
+        for j, o in enumerate(st.outs)
+        if math.isfinite(sigma[o])
+    )
+    h.baseline = {"noise_floor": floor}
 
-    fit_before_tr = _nrmse_table(outs, [e.y for e in tr], sims_tr)
-    fit_before_va = _nrmse_table(outs, [e.y for e in va], sims_va)
-    data = [data_entry(r, "train") for r in tr_list] + [
-        data_entry(r, "validation") for r in va_list
-    ]
-    nominal_fit = _build_fit(
-        nominal,
-        theta0,
-        nominal_outcome,
-        free,
-        bounds_nom,
-        method=f"diagnosis nominal ({method})",
-        settings={"x0": x0, "weights": dict(zip(outs, weights.tolist(), strict=True)), "dt": dt},
-        metrics={"train": {"nrmse": fit_before_tr}, "validation": {"nrmse": fit_before_va}},
-        data=data,
-        notes="nominal model of thermogym diagnosis",
-    )
-    report = DiagnosisReport(
-        model=name,
-        model_config=config,
-        outputs=list(outs),
-        exogenous=exo,
-        units=units,
-        mismatch_detected=detected,
-        alpha=alpha,
-        detection={
-            "train": {
-                o: {**t.to_dict(alpha_adj), "significant": sig_tr[o]} for o, t in tests_tr.items()
-            },
-            "validation": {
-                o: {**t.to_dict(alpha_adj), "significant": sig_va[o]} for o, t in tests_va.items()
-            },
-            "alpha_per_test": alpha_adj,
-            "materiality": {"min_snr": min_snr, "min_rel": min_rel},
-        },
-        located=located,
-        nominal_fit=nominal_fit,
-        fit_before={"train": fit_before_tr, "validation": fit_before_va},
-        notes=notes,
-    )
-    report.series = [
-        {"name": e.name, "role": r, "time": e.time, "measured": e.y, "nominal": s, "u": e.u}
-        for e, r, s in zip(all_exps, roles, all_sims, strict=True)
-    ]
-    report.regime_values = regs
-    report.tests_before = {"train": tests_tr, "validation": tests_va}
-    if not detected:
-        report.best = {
-            "effect": "none",
-            "target": "",
-            "explanation": CATALOGUE["none"].explanation,
+
+# ------------------------------------------------------------------ stage: parameters
+def _stage_parameters(st: _Run) -> None:
+    """Parameter or physics: whether the given parameters were off."""
+    h = st.nominal
+    if st.generic or not st.calibrated:
+        st.parameters = {
+            "tested": False,
+            "reason": "a generic model has no given parameters"
+            if st.generic
+            else "no identifiable parameter",
         }
-        report.seconds = time.perf_counter() - t_start
-        say("no significant mismatch: effect 'none'")
-        return report
+        return
+    g = Hypothesis(candidates=(), model=st.model, theta=st.given.copy())
+    pb = FitProblem(st.model, (), st.given, np.zeros(0), np.zeros(0), st.tr, st.weights, st.x0)
+    g.sims_train = [pb.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.tr))]
+    pv = FitProblem(st.model, (), st.given, np.zeros(0), np.zeros(0), st.va, st.weights, st.x0)
+    g.sims_val = [pv.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.va))]
+    score_self(g, st.data)
+    st.given_h = g
+    # the calibrated model against the given one: k re-calibrated parameters
+    chi2, n = whitened_chi2(residuals_of(g, st.data)[1], residuals_of(h, st.data)[1])
+    d = delta_ic(chi2, len(st.calibrated), n)
+    better = bool(d < 0 and h.wsse_val < g.wsse_val)
+    iv = intervals(
+        h,
+        st.calibrated,
+        st.tr,
+        st.weights,
+        st.x0,
+        experiment={p: CATALOGUE["parameter_error"].experiment(p) for p in st.calibrated},
+    )
+    moved = {}
+    for p in st.calibrated:
+        v0 = float(st.given[st.model.param_index(p)])
+        v1 = float(h.theta[st.model.param_index(p)])
+        spec_p = st.model.parameters[st.model.param_index(p)]
+        row = {
+            "given": v0,
+            "calibrated": v1,
+            "value": v1,
+            "unit": spec_p.unit,
+            "description": spec_p.description,
+            **iv.get(p, {}),
+        }
+        lo_, hi_ = row.get("low", math.nan), row.get("high", math.nan)
+        row["moved"] = bool(math.isfinite(lo_) and not (lo_ <= v0 <= hi_))
+        moved[p] = row
+    h.intervals.update(iv)
+    outs = st.outs
+    st.parameters = {
+        "tested": True,
+        "delta_ic": d,
+        "chi2_heldout": chi2,
+        "significant": better,
+        "parameters": moved,
+        "moved": [p for p, r in moved.items() if r["moved"]],
+        "validation_given": nrmse_table(outs, [e.y for e in st.va], g.sims_val),
+        "validation_calibrated": nrmse_table(outs, [e.y for e in st.va], h.sims_val),
+        "identifiability": st.idf_table,
+    }
+    verdict = "explains part of the mismatch" if better else "changes nothing significant"
+    st.say(f"parameters: re-calibration {verdict} (held-out ΔIC {d:.1f})")
 
-    # ---- 4 explain
-    share = {d["signal"]: d["share_of_error"] for d in located["signals"]}
-    ctx = Context(
-        model=nominal,
-        model_name=name,
-        model_config=config,
-        theta=theta0,
-        free=tuple(free),
-        fixed=fixed,
-        outputs=tuple(outs),
-        units=units,
-        roles={s.name: s.role for s in nominal.signals},
+
+# ------------------------------------------------------------------ stage: hypotheses
+def _stage_hypotheses(st: _Run) -> None:
+    if not st.detected:
+        return
+    h = st.nominal
+    all_exps = [*st.tr, *st.va]
+    share = {d["signal"]: d["share_of_error"] for d in st.located["signals"]}
+    units = {s.name: s.unit for s in st.model.signals}
+    no_units = all(units.get(o, "1") in ("1", "", None) for o in st.outs)
+    st.ctx = Context(
+        model=st.model,
+        spec=st.spec,
+        theta=h.theta,
+        free=h.free,
+        outputs=tuple(st.outs),
         time=[e.time for e in all_exps],
         dt=[e.dt for e in all_exps],
         u=[e.u for e in all_exps],
         y=[e.y for e in all_exps],
-        sim=all_sims,
-        is_train=[r == "train" for r in roles],
-        sigma=sigma,
-        scale=scale,
+        sim=[*h.sims_train, *h.sims_val],
+        is_train=[True] * len(st.tr) + [False] * len(st.va),
+        sigma=st.sigma,
+        scale={o: 1.0 / float(st.weights[j]) for j, o in enumerate(st.outs)},
         share=share,
-        regimes=located["all_regimes"],
+        regimes=st.located["all_regimes"],
+        assumed_celsius=no_units,
     )
-    feats = signatures(ctx)
-    cands = candidates_for(ctx, feats)
-    if candidates is not None:
-        cands = [c for c in cands if c.effect in candidates]
-    cands = cands[:max_candidates]
-    train_material = any(sig_tr.values())
-    use = scheme
-    if scheme == "auto":
-        use = "crossfit" if (not train_material and len(va) >= 2) else "split"
-    if use == "crossfit" and len(va) < 2:
-        raise ConfigError("scheme 'crossfit' needs at least two validation recordings")
-    report.scheme = use
-    say(f"fitting {len(cands)} hypotheses ({use})")
-    deadline = None if time_limit is None else t_start + time_limit
-    hyps = _explain(
-        ctx, cands, tr, va, weights, x0, bounds_nom, use, max_nfev, deadline, sigma, say
-    )
-    # sparse-regression fallback
-    s0_va, n_va = _wsse([e.y for e in va], _heldout_nominal(hyps, sims_va), weights)
-    floor = sum(
-        float(weights[j] ** 2) * sigma[o] ** 2 * sum(int(np.isfinite(e.y[:, j]).sum()) for e in va)
-        for j, o in enumerate(outs)
-        if math.isfinite(sigma[o])
-    )
-    for h in hyps:
-        _score(h, s0_va, n_va, floor)
-    hyps.sort(key=lambda h: -h["score"] if math.isfinite(h["score"]) else math.inf)
-    winners = [h for h in hyps if h["score"] > 0 and h["explained"] >= min_explained]
-    if not winners and sparse:
-        say("no catalogued effect explains the residual: sparse regression")
-        from thermogym.identification.diagnosis.sindy import sparse_hypothesis
-
-        h = sparse_hypothesis(ctx, tr, va, weights, x0, bounds_nom, use, max_nfev, say)
-        if h is not None:
-            _score(h, s0_va, n_va, floor)
-            hyps.append(h)
-            hyps.sort(key=lambda h: -h["score"] if math.isfinite(h["score"]) else math.inf)
-            if h["score"] > 0 and h["explained"] >= min_explained:
-                winners = [h]
-    report.signatures = feats
-    report.hypotheses = hyps
-    if winners:
-        best = winners[0]
-        report.best = {k: v for k, v in best.items() if not k.startswith("_")}
-        _finalise_best(
-            report,
-            best,
-            ctx=ctx,
-            tr=tr,
-            va=va,
-            tr_list=tr_list,
-            va_list=va_list,
-            weights=weights,
-            x0=x0,
-            alpha_adj=alpha_adj,
-            max_lag=max_lag,
-            data=data,
-            scheme=use,
-            max_nfev=max_nfev,
+    if no_units:
+        st.notes.append(
+            "the outputs carry no unit: heat-transfer hypotheses took them as temperatures in °C "
+            "(give units in the recording's sidecar to decide otherwise)"
         )
-    else:
-        report.best = {
-            "effect": "unexplained",
-            "target": "",
-            "explanation": "A significant mismatch remains that none of the hypotheses tried "
-            "explains on held-out data: the model lacks something outside the catalogue, or the "
-            "data cannot separate the candidates (see the ranked hypotheses).",
+    st.ctx.features = signatures(st.ctx)
+    cands = candidates_for(st.ctx, list(st.opts["candidates"]) if st.opts["candidates"] else None)
+    if st.opts["max_candidates"]:
+        cands = cands[: st.opts["max_candidates"]]
+    st.candidates = cands
+    st.say(f"{len(cands)} candidate effects and forms")
+
+
+# ------------------------------------------------------------------ stage: selection
+def _stage_selection(st: _Run) -> None:
+    if not st.detected or not st.candidates:
+        st.selection = Selection()
+        return
+    sel = forward_selection(
+        st.spec, st.nominal, st.candidates, st.data, max_effects=st.opts["max_effects"]
+    )
+    # a generic extra state with as many parameters beside each kept effect (item 6)
+    parent = st.nominal
+    for h in sel.steps:
+        if st.data.expired:
+            break
+        n = max(2, h.k_global - parent.k_global)
+        g = generic_fix(st.ctx, n)
+        if h.last.effect == "missing_dynamics" and h.last.form == g.form:
+            parent = h
+            continue
+        gh = fit_hypothesis(st.spec, parent, g, st.data, st.nominal)
+        h.baseline = {
+            "generic_fix": f"{g.form} ({gh.k_global - parent.k_global} parameters)",
+            "delta_ic": gh.delta_ic,
+            "validation_after": gh.validation_after,
+            "physics_favoured": bool(not gh.ok or h.delta_ic < gh.delta_ic),
         }
-    report.seconds = time.perf_counter() - t_start
-    say(f"best: {report.best['effect']} ({report.seconds:.1f} s)")
+        if not h.baseline["physics_favoured"]:
+            h.notes.append(
+                "the evidence does not favour a physical explanation: a generic extra state "
+                "with as many parameters fits the held-out data as well or better"
+            )
+        parent = h
+    if not sel.steps and st.opts["sparse"] and not st.data.expired:
+        _sparse(st, sel)
+    st.selection = sel
+
+
+def _sparse(st: _Run, sel: Selection) -> None:
+    from thermogym.identification.diagnosis.sindy import sparse_candidates
+
+    try:
+        cands = sparse_candidates(st.ctx)
+    except Exception as e:  # pysindy missing or failing: said, not fatal
+        st.notes.append(f"sparse regression not run: {type(e).__name__}: {e}")
+        return
+    best = None
+    for c in cands:
+        h = fit_hypothesis(st.spec, st.nominal, c, st.data, st.nominal)
+        sel.first_round.append(h)
+        if passes(h, st.nominal, len(cands)) and (best is None or h.delta_ic < best.delta_ic):
+            best = h
+    if best is not None:
+        sel.steps.append(best)
+
+
+# ------------------------------------------------------------------ stage: identifiability
+def _stage_identifiability(st: _Run) -> None:
+    sel = st.selection
+    if sel is None or not sel.steps:
+        return
+    final = sel.final
+    names = [p for p in final.free if p in final.extra or p in st.calibrated]
+    exp = _experiments(final, names, st)
+    try:
+        final.intervals.update(intervals(final, names, st.tr, st.weights, st.x0, experiment=exp))
+    except Exception as e:  # reported, not fatal
+        final.notes.append(f"intervals not computed: {type(e).__name__}: {e}")
+
+
+def _experiments(final: Hypothesis, names: Sequence[str], st: _Run) -> dict[str, str]:
+    """Per parameter, the experiment that would identify it (from the effect that owns it)."""
+    out: dict[str, str] = {}
+    owner: dict[str, str] = {}
+    for c in final.candidates:
+        sub = st.spec.build([x for x in final.candidates if x is not c])
+        for p in final.model.param_names:
+            if p not in sub.param_names:
+                owner[p] = c.effect
+    for p in names:
+        eff = owner.get(p, "parameter_error")
+        text = CATALOGUE[eff].experiment(p) if eff in CATALOGUE else "a richer excitation"
+        if eff == "input_dependent_heat_transfer" or "second level" in text:
+            src = _source_of(final, p)
+            if src:
+                text = f"a second level of {src} in the training data"
+        out[p] = text
+    return out
+
+
+def _source_of(final: Hypothesis, p: str) -> str | None:
+    for c in final.candidates:
+        for a in c.augmentations:
+            if a.get("source") and a.get("signal") and p.endswith(str(a["signal"])):
+                return str(a["source"])
+    if any(c.internal for c in final.candidates) and final.model is not None:
+        ins = [s.name for s in final.model.inputs]
+        return ins[0] if ins else None
+    return None
+
+
+# ------------------------------------------------------------------ stage: report
+def _stage_report(st: _Run) -> DiagnosisReport:
+    h = st.nominal
+    o = st.opts
+    outs = st.outs
+    exo = list(st.model.exogenous_names)
+    units = {s.name: s.unit for s in st.model.signals}
+    fit_before_tr = nrmse_table(outs, [e.y for e in st.tr], h.sims_train)
+    fit_before_va = nrmse_table(outs, [e.y for e in st.va], h.sims_val)
+    data = [data_entry(r, "train") for r in st.tr_list] + [
+        data_entry(r, "validation") for r in st.va_list
+    ]
+    nominal_fit = _build_fit(
+        st.model,
+        h,
+        method=f"diagnosis nominal ({st.method})",
+        settings={
+            "x0": st.x0,
+            "weights": dict(zip(outs, st.weights.tolist(), strict=True)),
+            "dt": o["dt"],
+            "calibrated": list(st.calibrated),
+        },
+        metrics={"train": {"nrmse": fit_before_tr}, "validation": {"nrmse": fit_before_va}},
+        data=data,
+        notes="nominal model of thermogym diagnosis",
+    )
+    tests_tr, tests_va = st.tests["train"], st.tests["validation"]
+    alpha_adj = st.tests["alpha_adj"]
+    sel = st.selection or Selection()
+    steps = sel.steps
+    physics = []
+    for s in steps:
+        e = s.last.effect
+        if e in EFFECT_NAMES and e not in physics:
+            physics.append(e)
+    par = st.parameters
+    if physics:
+        named = list(physics)
+        if par.get("significant"):
+            named.append("parameter_error")
+    elif par.get("significant"):
+        named = ["parameter_error"]
+    elif st.detected and st.arx and not st.arx.get("nominal_adequate", True):
+        named = ["unexplained"]
+    else:
+        named = ["none"]
+    report = DiagnosisReport(
+        model=st.spec.name,
+        model_config=st.spec.config(),
+        outputs=list(outs),
+        exogenous=exo,
+        units=units,
+        mismatch_detected=named != ["none"],
+        alpha=o["alpha"],
+        detection={
+            "train": {
+                x: {**t.to_dict(alpha_adj), "significant": st.tests["sig_tr"][x]}
+                for x, t in tests_tr.items()
+            },
+            "validation": {
+                x: {**t.to_dict(alpha_adj), "significant": st.tests["sig_va"][x]}
+                for x, t in tests_va.items()
+            },
+            "alpha_per_test": alpha_adj,
+            "materiality": {"min_snr": o["min_snr"], "min_rel": o["min_rel"]},
+            "residual_structure": st.detected,
+        },
+        located=st.located,
+        nominal_fit=nominal_fit,
+        fit_before={"train": fit_before_tr, "validation": fit_before_va},
+        notes=st.notes,
+    )
+    report.named_effects = named
+    report.parameters = par
+    report.baseline = {k: v for k, v in st.arx.items() if k != "sims"}
+    report.nominal_adequate = bool(st.arx.get("nominal_adequate", True))
+    report.scheme = st.data.scheme if st.data else ""
+    report.stages = {k: round(v, 3) for k, v in st.seconds.items()}
+    report.selection = sel.summary()
+    report.series = [
+        {"name": e.name, "role": r, "time": e.time, "measured": e.y, "nominal": s, "u": e.u}
+        for e, r, s in zip(
+            [*st.tr, *st.va],
+            ["train"] * len(st.tr) + ["validation"] * len(st.va),
+            [*h.sims_train, *h.sims_val],
+            strict=True,
+        )
+    ]
+    report.regime_values = st.regs
+    report.tests_before = {"train": tests_tr, "validation": tests_va}
+    if st.ctx is not None:
+        report.signatures = st.ctx.features
+    report.hypotheses = [x.to_dict() for x in sel.first_round]
+    for i, x in enumerate(report.hypotheses):
+        x["rank"] = i + 1
+        x["explanation"] = CATALOGUE[x["effect"]].explanation if x["effect"] in CATALOGUE else ""
+    report.combination = []
+    if steps:
+        final = steps[-1]
+        sh = shares(h, steps)
+        for s, share in zip(steps, sh, strict=True):
+            c = s.last
+            report.combination.append(
+                {
+                    "effect": c.effect,
+                    "form": c.form,
+                    "target": c.target,
+                    "evidence": c.evidence,
+                    "share_of_explained_error": share,
+                    "delta_ic": s.delta_ic,
+                    "params": final.params_table(
+                        [
+                            p
+                            for p in final.extra
+                            if p in s.extra
+                            and p not in (steps[0].extra if s is not steps[0] else ())
+                        ]
+                        if s is not steps[0]
+                        else list(s.extra)
+                    ),
+                    "baseline": s.baseline,
+                    "notes": s.notes,
+                }
+            )
+        first = steps[0]
+        report.best = {
+            "effect": first.last.effect,
+            "form": first.last.form,
+            "target": first.last.target,
+            "explanation": CATALOGUE[first.last.effect].explanation
+            if first.last.effect in CATALOGUE
+            else "",
+            "evidence": first.last.evidence,
+            "params": final.params_table([p for p in final.extra]),
+            "fit_before": fit_before_tr,
+            "fit_after": final.fit_after,
+            "validation_before": fit_before_va,
+            "validation_after": final.validation_after,
+            "explained": final.explained,
+            "delta_ic": first.delta_ic,
+            "named_effects": named,
+            "notes": [n for s in steps for n in s.notes],
+        }
+        _finalise(report, final, st, data)
+    else:
+        eff = named[0]
+        text = {
+            "none": CATALOGUE["none"].explanation,
+            "parameter_error": CATALOGUE["parameter_error"].explanation,
+            "unexplained": "A significant mismatch remains that none of the hypotheses tried "
+            "explains on held-out data, and a plain ARX predicts the held-out data better than "
+            "the nominal model: the model lacks something outside the catalogue, or the data "
+            "cannot separate the candidates (see the ranked hypotheses).",
+        }[eff]
+        report.best = {"effect": eff, "target": "", "explanation": text, "named_effects": named}
+        if eff == "parameter_error":
+            report.best["params"] = {
+                p: r for p, r in par.get("parameters", {}).items() if r.get("moved")
+            }
+    report.seconds = time.perf_counter() - st.t0
+    st.say(f"named: {', '.join(named)} ({report.seconds:.1f} s)")
     return report
 
 
-def _heldout_nominal(hyps: list[dict[str, Any]], sims_va: list[NDArray]) -> list[NDArray]:
-    # in the cross-fit scheme the nominal's held-out predictions come from the folds
-    for h in hyps:
-        if "_nominal_heldout" in h:
-            return h["_nominal_heldout"]
-    return sims_va
+def _finalise(report: DiagnosisReport, final: Hypothesis, st: _Run, data: list) -> None:
+    from thermogym.models.augmented import AugmentedModel
 
-
-def _score(h: dict[str, Any], s0: float, n: int, floor: float) -> None:
-    s = h["_wsse_val"]
-    k = h["n_extra"]
-    if not (math.isfinite(s) and s > 0 and s0 > 0):
-        h["score"], h["delta_bic"], h["explained"] = -math.inf, math.inf, 0.0
-        return
-    dbic = n * math.log(s / s0) + k * math.log(max(n, 2))
-    h["delta_bic"] = float(dbic)
-    h["score"] = float(-dbic)
-    h["explained"] = float((s0 - s) / max(s0 - floor, 1e-12 * s0)) if s0 > floor else 0.0
-    h["validation_sse_reduction"] = float(1.0 - s / s0)
-
-
-def _candidate_problem(
-    cand: Candidate,
-    ctx: Context,
-    exps: list[Experiment],
-    weights: NDArray[np.float64],
-    x0: str,
-    bounds_nom: dict[str, tuple[float, float]],
-    theta_nom: NDArray[np.float64] | None = None,
-    *,
-    extras_only: bool = False,
-    extra_start: Mapping[str, float] | None = None,
-) -> tuple[Model, FitProblem, list[NDArray[np.float64]]]:
-    model = get_model(cand.model_name, **cand.model_config)
-    fit_with = fast_or_none(model) or model  # fast path for stepped inputs (fastnet.py)
-    th_nom = ctx.theta if theta_nom is None else theta_nom
-    base = model.nominal.copy()
-    for i, p in enumerate(ctx.model.param_names):
-        if p in model.param_names:
-            base[model.param_index(p)] = th_nom[i]
-    for p, (start, _, _) in cand.extra.items():
-        base[model.param_index(p)] = start
-    for p, v in (extra_start or {}).items():
-        base[model.param_index(p)] = v
-    nominal_free = [] if extras_only else [p for p in ctx.free if p in model.param_names]
-    free = nominal_free + list(cand.extra)
-    lo = np.array([bounds_nom[p][0] if p in bounds_nom else cand.extra[p][1] for p in free])
-    hi = np.array([bounds_nom[p][1] if p in bounds_nom else cand.extra[p][2] for p in free])
-    pb = FitProblem(fit_with, free, base, lo, hi, exps, weights, x0)
-    starts = []
-    if extra_start is None:
-        # the nominal fit compensated the missing effect: also start from the model's own
-        # (physical) values of the nominal parameters
-        prior = base.copy()
-        for p in nominal_free:
-            prior[model.param_index(p)] = model.nominal[model.param_index(p)]
-        for b0 in (base, prior) if nominal_free else (base,):
-            for alt in [{}, *cand.starts]:
-                v = b0[[model.param_index(p) for p in free]].copy()
-                for p, val in alt.items():
-                    v[free.index(p)] = val
-                starts.append(np.clip(v, lo, hi))
-        starts = starts[1:]  # the first is the default start
-    return model, pb, starts
-
-
-def _fit_candidate(
-    cand: Candidate,
-    ctx: Context,
-    tr: list[Experiment],
-    va: list[Experiment],
-    weights: NDArray[np.float64],
-    x0: str,
-    bounds_nom: dict[str, tuple[float, float]],
-    scheme: str,
-    folds: list[Any],
-    max_nfev: int,
-    deadline: float | None,
-    *,
-    extras_only: bool = False,
-    extra_start: Mapping[str, float] | None = None,
-) -> dict[str, Any]:
-    t0 = time.perf_counter()
-    outs = list(ctx.outputs)
-    kw = {"extras_only": extras_only, "extra_start": extra_start}
-    try:
-        model, pb, starts = _candidate_problem(cand, ctx, tr, weights, x0, bounds_nom, **kw)
-        if scheme == "split":
-            out = fit_model(pb, starts=starts, max_nfev=max_nfev, deadline=deadline)
-            sims_tr = simulate_all(pb.model, out.theta, tr, x0)
-            sims_va = simulate_all(pb.model, out.theta, va, x0)
-            theta = out.theta
-        else:
-            held = []
-            for k, fit_set, th_fold, _ in folds:
-                m2, pb2, st2 = _candidate_problem(
-                    cand, ctx, fit_set, weights, x0, bounds_nom, th_fold, **kw
-                )
-                o2 = fit_model(pb2, starts=st2, max_nfev=max_nfev, deadline=deadline)
-                held.append(simulate_all(m2, o2.theta, [va[k]], x0)[0])
-            # the model reported: fitted on every recording
-            pb_all = FitProblem(
-                model, pb.free, pb.base, pb.lower, pb.upper, [*tr, *va], weights, x0
-            )
-            out = fit_model(pb_all, starts=starts, max_nfev=max_nfev, deadline=deadline)
-            theta = out.theta
-            sims_tr = simulate_all(model, theta, tr, x0)
-            sims_va = held
-    except Exception as e:  # a hypothesis that cannot be fitted is reported, not fatal
-        return {
-            "effect": cand.effect,
-            "target": cand.target,
-            "explanation": CATALOGUE[cand.effect].explanation,
-            "evidence": cand.evidence,
-            "error": f"{type(e).__name__}: {e}",
-            "n_extra": len(cand.extra),
-            "_wsse_val": math.nan,
-            "seconds": time.perf_counter() - t0,
-            "_candidate": cand,
-        }
-    s_va, _ = _wsse([e.y for e in va], sims_va, weights)
-    params = {
-        p: {
-            "value": out.values[p],
-            "stderr": out.stderr.get(p, math.nan),
-            "unit": model.parameters[model.param_index(p)].unit,
-            "description": model.parameters[model.param_index(p)].description,
-        }
-        for p in cand.extra
-    }
-    h = {
-        "effect": cand.effect,
-        "target": cand.target,
-        "explanation": CATALOGUE[cand.effect].explanation,
-        "evidence": cand.evidence,
-        "augmentation": CATALOGUE[cand.effect].augmentation,
-        "params": params,
-        "n_extra": len(cand.extra),
-        "refitted_nominal": not extras_only,
-        "fit_before": _nrmse_table(outs, [e.y for e in tr], ctx.sim[: len(tr)]),
-        "fit_after": _nrmse_table(outs, [e.y for e in tr], sims_tr),
-        "validation_before": _nrmse_table(
-            outs,
-            [e.y for e in va],
-            [f[3] for f in folds] if scheme == "crossfit" else ctx.sim[len(tr) :],
-        ),
-        "validation_after": _nrmse_table(outs, [e.y for e in va], sims_va),
-        "at_bounds": [p for p in out.at_bounds if p in cand.extra],
-        "signature_score": cand.prior,
-        "seconds": time.perf_counter() - t0,
-        "_wsse_val": s_va,
-        "_model": model,
-        "_theta": theta,
-        "_outcome": out,
-        "_free": list(pb.free),
-        "_bounds": {
-            p: (float(a), float(b)) for p, a, b in zip(pb.free, pb.lower, pb.upper, strict=True)
-        },
-        "_sims_tr": sims_tr,
-        "_sims_va": sims_va,
-        "_candidate": cand,
-    }
-    if scheme == "crossfit":
-        h["_nominal_heldout"] = [f[3] for f in folds]
-    return h
-
-
-def _integrated_by_rk4(model: Model) -> bool:
-    """Whether a candidate is an RC network that must be integrated by RK4 (slow)."""
-    from thermogym.models.thermal_network import ThermalNetworkModel
-
-    return isinstance(model, ThermalNetworkModel) and switched_or_none(model) is None
-
-
-def _explain(
-    ctx,
-    cands,
-    tr,
-    va,
-    weights,
-    x0,
-    bounds_nom,
-    scheme,
-    max_nfev,
-    deadline,
-    sigma,
-    say,
-    refine: int = 1,
-):
-    """Fit every candidate; expensive ones are screened first and refined if promising.
-
-    A hypothesis an RC network can only integrate by fixed-step RK4 (today:
-    ``nonlinear_heat_transfer``) over long training data (more than
-    ``_SCREEN_SAMPLES`` samples) is first fitted with only its extra
-    parameters free — a Jacobian of k + 1 simulations instead of P + k + 1.
-    If its held-out error then ranks among the best ``refine``, it is refitted
-    with every nominal parameter free, since a missing effect biases the
-    nominal fit. (The rule depends on the model and the data only, so the
-    diagnosis stays deterministic.)
-    """
-    folds: list[Any] = []
-    if scheme == "crossfit":
-        for k in range(len(va)):
-            fit_set = [*tr, *[e for i, e in enumerate(va) if i != k]]
-            # the nominal refitted on the fold's data: the "before" of the held-out recording
-            free = list(ctx.free)
-            pb = FitProblem(
-                ctx.model,
-                free,
-                ctx.theta,
-                [bounds_nom[p][0] for p in free],
-                [bounds_nom[p][1] for p in free],
-                fit_set,
-                weights,
-                x0,
-            )
-            out = fit_model(pb, max_nfev=max_nfev)
-            folds.append(
-                (k, fit_set, out.theta, simulate_all(ctx.model, out.theta, [va[k]], x0)[0])
-            )
-    hyps: list[dict[str, Any]] = []
-    screened: list[dict[str, Any]] = []
-    n_train = sum(e.n for e in tr)
-    for cand in cands:
-        if deadline is not None and time.perf_counter() > deadline:
-            say(f"time limit: {cand.label} not fitted")
-            continue
-        screen = False
-        if scheme == "split" and ctx.free and n_train > _SCREEN_SAMPLES:
-            try:
-                screen = _integrated_by_rk4(get_model(cand.model_name, **cand.model_config))
-            except Exception:  # the fit below reports the failure
-                screen = False
-        h = _fit_candidate(
-            cand,
-            ctx,
-            tr,
-            va,
-            weights,
-            x0,
-            bounds_nom,
-            scheme,
-            folds,
-            min(max_nfev, 12) if screen else max_nfev,
-            deadline,
-            extras_only=screen,
-        )
-        h["screened"] = screen
-        hyps.append(h)
-        if screen:
-            screened.append(h)
-        if "error" in h:
-            say(f"{cand.label}: failed ({h['error']})")
-        else:
-            say(
-                f"{cand.label}: held-out mean NRMSE {h['validation_before']['mean']:.4f} → "
-                f"{h['validation_after']['mean']:.4f} ({h['seconds']:.1f} s"
-                + (", extra parameters only)" if screen else ")")
-            )
-    ok = sorted((h for h in hyps if math.isfinite(h["_wsse_val"])), key=lambda h: h["_wsse_val"])
-    for h in [h for h in ok[:refine] if h in screened]:
-        if deadline is not None and time.perf_counter() > deadline:
-            break
-        cand = h["_candidate"]
-        start = {p: v["value"] for p, v in h["params"].items()}
-        h2 = _fit_candidate(
-            cand,
-            ctx,
-            tr,
-            va,
-            weights,
-            x0,
-            bounds_nom,
-            scheme,
-            folds,
-            min(max_nfev, 15),
-            deadline,
-            extra_start=start,
-        )
-        if "error" not in h2:
-            h2["seconds"] += h["seconds"]
-            h2["screened"] = False
-            hyps[hyps.index(h)] = h2
-            say(
-                f"{cand.label}: refitted with the nominal parameters: held-out mean NRMSE "
-                f"{h2['validation_after']['mean']:.4f} ({h2['seconds']:.1f} s)"
-            )
-    return hyps
-
-
-def _finalise_best(
-    report,
-    best,
-    *,
-    ctx,
-    tr,
-    va,
-    tr_list,
-    va_list,
-    weights,
-    x0,
-    alpha_adj,
-    max_lag,
-    data,
-    scheme,
-    max_nfev,
-):
-    model = best["_model"]
-    theta = best["_theta"]
-    outs = list(ctx.outputs)
-    exo = list(ctx.exogenous)
-    tests_tr = _tests(outs, tr, best["_sims_tr"], report.alpha, max_lag, exo)
-    tests_va = _tests(outs, va, best["_sims_va"], report.alpha, max_lag, exo)
+    o = st.opts
+    outs = st.outs
+    exo = list(st.model.exogenous_names)
+    alpha_adj = st.tests["alpha_adj"]
+    tests_tr = _tests(outs, st.tr, final.sims_train, o["alpha"], o["max_lag"], exo)
+    tests_va = _tests(outs, st.va, final.sims_val, o["alpha"], o["max_lag"], exo)
     report.detection_after = {
-        "train": {o: t.to_dict(alpha_adj) for o, t in tests_tr.items()},
-        "validation": {o: t.to_dict(alpha_adj) for o, t in tests_va.items()},
+        "train": {x: t.to_dict(alpha_adj) for x, t in tests_tr.items()},
+        "validation": {x: t.to_dict(alpha_adj) for x, t in tests_va.items()},
     }
     report.tests_after = {"train": tests_tr, "validation": tests_va}
-    for s, sim in zip(report.series, [*best["_sims_tr"], *best["_sims_va"]], strict=True):
+    for s, sim in zip(report.series, [*final.sims_train, *final.sims_val], strict=True):
         s["augmented"] = sim
+    model = final.model
+    theta = final.theta
     if isinstance(model, AugmentedModel) and any(
         a["effect"] == "transport_delay" for a in model.augmentations
     ):
-        # keep enough input history for step-wise use of the fitted delay
+        # keep enough history for step-wise use of the fitted dead times
         cfg = model.config()
-        dtm = min(e.dt for e in tr)
+        dtm = min(e.dt for e in st.tr)
         for a in cfg["augmentations"]:
             if a["effect"] == "transport_delay":
-                d = float(theta[model.param_index(f"delay_{a['signal']}")])
+                pname = ("delay_out_" if a.get("form") == "output" else "delay_") + a["signal"]
+                d = float(theta[model.param_index(pname)])
                 a["history"] = math.ceil(d / dtm) + 2
-        if cfg["base"] not in model_names():  # a user's own model: rebuild around the instance
-            cfg = {"base": ctx.model, "augmentations": cfg["augmentations"]}
-        model = AugmentedModel(**cfg)
-    fit = _build_fit(
+        base = model.base if not st.spec.registered else cfg["base"]
+        model2 = AugmentedModel(
+            base, None if not st.spec.registered else cfg["base_config"], cfg["augmentations"]
+        )
+        theta = np.array(
+            [
+                theta[model.param_index(p)]
+                if p in model.param_names
+                else model2.nominal[model2.param_index(p)]
+                for p in model2.param_names
+            ]
+        )
+        model = model2
+    h2 = Hypothesis(
+        candidates=final.candidates,
+        model=model,
+        free=final.free,
+        bounds=final.bounds,
+        theta=theta,
+        outcome=final.outcome,
+    )
+    report.augmented_fit = _build_fit(
         model,
-        theta,
-        best["_outcome"],
-        best["_free"],
-        best["_bounds"],
-        method=f"thermogym diagnosis: {best['effect']}",
+        h2,
+        method="thermogym diagnosis: " + " + ".join(c.effect for c in final.candidates),
         settings={
-            "effect": best["effect"],
-            "target": best["target"],
-            "x0": x0,
-            "scheme": scheme,
-            "nominal_model": ctx.model_name,
-            "nominal_config": ctx.model_config,
+            "named_effects": report.named_effects,
+            "forms": [c.form for c in final.candidates],
+            "targets": [c.target for c in final.candidates],
+            "x0": st.x0,
+            "scheme": report.scheme,
+            "nominal_model": st.spec.name,
+            "local_parameters_neutral": list(final.local),
         },
         metrics={
-            "train": {"nrmse": best["fit_after"]},
-            "validation": {"nrmse": best["validation_after"]},
+            "train": {"nrmse": final.fit_after},
+            "validation": {"nrmse": final.validation_after},
         },
         data=data,
-        notes=best["explanation"],
+        notes="; ".join(
+            CATALOGUE[c.effect].explanation[:80] for c in final.candidates if c.effect in CATALOGUE
+        ),
     )
-    report.augmented_fit = fit
+
+
+def _build_fit(
+    model: Model,
+    h: Hypothesis,
+    *,
+    method: str,
+    settings: dict[str, Any],
+    metrics: dict[str, Any],
+    data: list[dict[str, Any]],
+    notes: str,
+) -> FitResult:
+    stderr = {p: math.nan for p in model.param_names}
+    cov, cov_names = None, []
+    out = h.outcome
+    if out is not None:
+        stderr.update({p: v for p, v in out.stderr.items() if p in stderr})
+        if out.covariance is not None and all(p in model.param_names for p in out.covariance_names):
+            cov = np.asarray(out.covariance).tolist()
+            cov_names = list(out.covariance_names)
+    b = {p.name: [p.lower, p.upper] for p in model.parameters}
+    for p, (lo, hi) in h.bounds.items():
+        if p in b:
+            b[p] = [float(lo), float(hi)]
+    th = np.asarray(h.theta, dtype=float).reshape(-1)
+    for i, p in enumerate(model.param_names):
+        lo, hi = b[p]
+        b[p] = [min(lo, float(th[i])), max(hi, float(th[i]))]
+    free = [p for p in h.free if p in model.param_names]
+    return FitResult.from_model(
+        model,
+        th,
+        stderr=stderr,
+        covariance=cov,
+        covariance_names=cov_names,
+        bounds=b,
+        fixed=[p for p in model.param_names if p not in free],
+        method=method,
+        settings=settings,
+        metrics=metrics,
+        data=data,
+        notes=notes,
+    )
+
+
+_STAGE_FUNCS: dict[str, Callable[[_Run], Any]] = {
+    "nominal": _stage_nominal,
+    "baseline": _stage_baseline,
+    "detection": _stage_detection,
+    "location": _stage_location,
+    "parameters": _stage_parameters,
+    "hypotheses": _stage_hypotheses,
+    "selection": _stage_selection,
+    "identifiability": _stage_identifiability,
+    "report": _stage_report,
+}

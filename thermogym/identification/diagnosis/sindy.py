@@ -22,17 +22,16 @@ physical reading.
 
 from __future__ import annotations
 
-import math
 import warnings
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym.identification.diagnosis.effects import CATALOGUE, Candidate, Context
-from thermogym.models.augmented import RESIDUAL_TERMS, _term_tag
+from thermogym.identification.diagnosis.context import Context
+from thermogym.identification.diagnosis.hypothesis import Candidate
+from thermogym.models.augmented import RESIDUAL_TERMS
 
-__all__ = ["MAPS_TO", "propose_supports", "sparse_hypothesis"]
+__all__ = ["MAPS_TO", "equation", "propose_supports", "sparse_candidates"]
 
 #: Vocabulary effect a dominant residual term points to.
 MAPS_TO: dict[str, str] = {
@@ -81,7 +80,7 @@ def _features(
 
 def propose_supports(
     ctx: Context, j: int, *, max_terms: int = 3, n_support: int = 3
-) -> list[list[str]]:
+) -> list[tuple[list[str], str]]:
     """Sparse supports of ``de/dt`` for output ``j`` from STLSQ at several thresholds.
 
     Parameters
@@ -96,8 +95,8 @@ def propose_supports(
 
     Returns
     -------
-    list of list of str
-        Term names of :data:`~.augmented.RESIDUAL_TERMS`.
+    list of (list of str, str)
+        Term names of :data:`~.augmented.RESIDUAL_TERMS` and the dominant one.
     """
     import pysindy as ps
 
@@ -127,7 +126,7 @@ def propose_supports(
     keep[terms.index("1")] = True
     Fn = F[:, keep] / scale[keep]
     names = [t for t, k in zip(terms, keep, strict=True) if k]
-    supports: list[list[str]] = []
+    supports: list[tuple[list[str], str]] = []
     target = de / (np.std(de) or 1.0)
     for thr in (0.5, 0.2, 0.1, 0.05, 0.02):
         opt = ps.STLSQ(threshold=thr, alpha=1e-6, max_iter=50)
@@ -135,10 +134,13 @@ def propose_supports(
             warnings.simplefilter("ignore")
             opt.fit(Fn, target[:, None])
         coef = np.asarray(opt.coef_).reshape(-1)
-        sup = [names[k] for k in np.flatnonzero(coef)]
-        if 0 < len(sup) <= max_terms and sup not in supports:
-            supports.append(sup)
-    supports.sort(key=len)
+        nz = np.flatnonzero(coef)
+        sup = [names[k] for k in nz]
+        if 0 < len(sup) <= max_terms and sup not in [s for s, _ in supports]:
+            # Fn has unit-spread columns: |coefficient| is the term's typical contribution
+            dominant = names[int(nz[np.argmax(np.abs(coef[nz]))])]
+            supports.append((sup, dominant))
+    supports.sort(key=lambda s: len(s[0]))
     return supports[:n_support]
 
 
@@ -159,40 +161,24 @@ def equation(terms: list[str], coef: dict[str, float], signal: str) -> str:
     return f"d e_{signal}/dt = " + " ".join(parts) + "  [per s]"
 
 
-def sparse_hypothesis(
-    ctx: Context,
-    tr: list[Any],
-    va: list[Any],
-    weights: NDArray[np.float64],
-    x0: str,
-    bounds_nom: dict[str, tuple[float, float]],
-    scheme: str,
-    max_nfev: int,
-    say: Any,
-) -> dict[str, Any] | None:
-    """Fit the sparse supports as ``residual_ode`` hypotheses; return the best one.
+def sparse_candidates(ctx: Context, *, max_terms: int = 3) -> list[Candidate]:
+    """The sparse supports as ``residual_ode`` candidates, each named by its dominant term.
+
+    The dominant term is the one with the largest typical contribution
+    ``|c_m| · rms(φ_m)`` in the sparse regression; :data:`MAPS_TO` reads it as
+    an effect of the vocabulary.
 
     Returns
     -------
-    dict or None
-        A hypothesis (as the catalogue's) with ``effect = "sparse_regression"``,
-        the ``equation`` and ``maps_to``; None when no support was found.
+    list of Candidate
+        Effect: the vocabulary effect the dominant term points to; form: the
+        sparse regression's support.
     """
-    from thermogym.identification.diagnosis.run import _explain, _wsse
-
     j = int(np.argmax([ctx.share.get(o, 0.0) for o in ctx.outputs]))
     o = ctx.outputs[j]
-    try:
-        supports = propose_supports(ctx, j)
-    except Exception as e:  # pragma: no cover - pysindy failure is reported, not fatal
-        say(f"sparse regression failed: {type(e).__name__}: {e}")
-        return None
-    if not supports:
-        return None
-    from thermogym.identification.diagnosis.effects import _wrap
-
-    cands = []
-    for sup in supports:
+    supports = propose_supports(ctx, j, max_terms=max_terms)
+    out = []
+    for sup, dominant in supports:
         spec = {
             "effect": "residual_ode",
             "signal": o,
@@ -200,60 +186,15 @@ def sparse_hypothesis(
             "input": ctx.main_input,
             **({"reference": ctx.ambient} if ctx.ambient else {}),
         }
-        name, cfg = _wrap(ctx, [spec])
-        extra = {f"c_{_term_tag(t)}_{o}": (0.0, -1e3, 1e3) for t in sup}
-        cands.append(
+        maps = MAPS_TO.get(dominant, "missing_dynamics")
+        out.append(
             Candidate(
-                "missing_dynamics",  # placeholder effect for the catalogue lookups in _explain
+                maps,
+                f"sparse regression: d e/dt from {sup} (dominant {dominant!r}: "
+                f"{RESIDUAL_TERMS[dominant]})",
                 o,
-                name,
-                cfg,
-                extra,
-                [],
-                f"sparse regression of d e_{o}/dt selects {sup}",
-                0.0,
+                (spec,),
+                evidence=f"sparse regression of d e_{o}/dt selects {sup}",
             )
         )
-    hyps = _explain(
-        ctx, cands, tr, va, weights, x0, bounds_nom, scheme, max_nfev, None, ctx.sigma, say
-    )
-    hyps = [h for h in hyps if "error" not in h]
-    if not hyps:
-        return None
-    best = min(hyps, key=lambda h: _wsse([e.y for e in va], h["_sims_va"], weights)[0])
-    sup = best["_candidate"].model_config["augmentations"][-1]["terms"]
-    coef = {t: best["params"][f"c_{_term_tag(t)}_{o}"]["value"] for t in sup}
-    # the dominant term: the largest typical contribution on the training data
-    contrib = {}
-    for t in sup:
-        vals = []
-        for i in range(len(ctx.time)):
-            if not ctx.is_train[i]:
-                continue
-            s, u = ctx.sim[i][:, j], ctx.u[i][:, list(ctx.exogenous).index(ctx.main_input)]
-            ref = (
-                ctx.u[i][:, list(ctx.exogenous).index(ctx.ambient)]
-                if ctx.ambient
-                else np.full(s.size, s[0])
-            )
-            e = ctx.y[i][:, j] - s
-            vals.append(
-                _features([t], np.nan_to_num(e), s, u, ref, (ctx.time[i] - ctx.time[i][0]) / 3600)[
-                    :, 0
-                ]
-            )
-        contrib[t] = abs(coef[t]) * float(np.sqrt(np.mean(np.concatenate(vals) ** 2)))
-    dominant = max(contrib, key=contrib.get)
-    maps = MAPS_TO.get(dominant, "missing_dynamics")
-    best["effect"] = "sparse_regression"
-    best["equation"] = equation(sup, coef, o)
-    best["maps_to"] = maps
-    best["explanation"] = (
-        f"No catalogued effect explains the residual; sparse regression finds "
-        f"{best['equation']} (dominant term '{dominant}': {RESIDUAL_TERMS[dominant]}), which "
-        f"reads as {maps}: {CATALOGUE[maps].explanation}"
-    )
-    best["augmentation"] = "residual ODE added to the output (sparse regression)"
-    if not math.isfinite(best["_wsse_val"]):
-        return None
-    return best
+    return out

@@ -1,0 +1,104 @@
+"""The diagnosis' fitting layer: the shared solver, initial states, per-recording parameters."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from _diag_plants import TRUE, NodeModel, node_recordings
+
+from thermogym.identification.diagnosis.fit import (
+    FitProblem,
+    fit_model,
+    prepare_experiments,
+    sobol_starts,
+)
+from thermogym.identification.diagnosis.scoring import ar_filter, delta_ic, whitened_chi2
+from thermogym.identification.optimizers.local import box_least_squares
+from thermogym.models.augmented import AugmentedModel
+
+
+def test_box_least_squares_solves_a_bounded_problem_and_stops_at_the_bound():
+    t = np.linspace(0.0, 1.0, 50)
+    y = 0.3 + 2.0 * np.exp(-3.0 * t)
+
+    def fun(s):  # s in the unit box: a = s0, b = 4 s1, c = 10 s2
+        return s[0] + 4 * s[1] * np.exp(-10 * s[2] * t) - y
+
+    def jac(s):
+        e = np.exp(-10 * s[2] * t)
+        return np.column_stack([np.ones_like(t), 4 * e, -40 * s[1] * t * e])
+
+    res = box_least_squares(fun, jac, np.array([0.5, 0.5, 0.5]), max_nfev=200)
+    assert res.success and res.s == pytest.approx([0.3, 0.5, 0.3], abs=1e-6)
+    # the constant's best value is negative: held at the bound 0, the others compensate
+    res = box_least_squares(lambda s: fun(s) + 0.5, jac, np.array([0.5, 0.5, 0.5]))
+    assert res.s[0] == 0.0 and res.cost > 0
+
+
+def test_identification_solver_option_normal_is_the_same_solver():
+    from thermogym.identification.optimizers.local import _SOLVERS, LEAST_SQUARES_OPTIONS
+
+    assert "normal" in _SOLVERS and LEAST_SQUARES_OPTIONS["solver"] == "trf"
+
+
+def test_initial_state_is_estimated_from_a_log_that_starts_mid_operation():
+    # the block's log starts 30 min into operation; the model's own start (steady at the
+    # first input) is wrong, the estimated one is right: true parameters fit to the noise
+    tr, _ = node_recordings(2, n_val=0, white=0.01, coloured=1e-6)
+    m = NodeModel()
+    exps = prepare_experiments(m, tr, ["T"])
+    th = m.theta(dict(TRUE))[0]
+    rms = {}
+    for x0 in ("rest", "estimate"):
+        pb = FitProblem(m, (), th, np.zeros(0), np.zeros(0), exps, np.ones(1), x0)
+        r = pb.residuals(np.zeros((1, 0)))[0]
+        rms[x0] = float(np.sqrt(np.mean(r**2)))
+    assert rms["estimate"] < 0.02 < 0.5 < rms["rest"]
+
+
+def test_per_recording_parameters_are_fitted_in_each_recording():
+    # a disturbance course that differs per recording: shared nothing, one block each
+    tr, _ = node_recordings(3, n_val=0, white=0.02, coloured=1e-6)
+    base = NodeModel()
+    m = AugmentedModel(
+        base, None,
+        [{"effect": "unmeasured_disturbance", "signal": "T_a", "form": "steps",
+          "span": 2 * 3600.0 + 10, "segments": 2}],
+    )  # fmt: skip
+    exps = prepare_experiments(m, tr, ["T"])
+    truth = [(1.5, -1.0), (-0.5, 2.0)]
+    for e, (a, b) in zip(exps, truth, strict=True):
+        th = m.theta({**TRUE, "dist_k0_T_a": a, "dist_k1_T_a": b})
+        pb = FitProblem(m, (), th[0], np.zeros(0), np.zeros(0), [e], np.ones(1), "estimate")
+        e.y[:, 0] = pb.simulate(np.zeros((1, 0)), 0)[0, :, 0]
+    free = ("dist_k0_T_a", "dist_k1_T_a")
+    th0 = m.theta(dict(TRUE))[0]
+    pb = FitProblem(m, free, th0, np.full(2, -5.0), np.full(2, 5.0), exps, np.ones(1))
+    assert pb.n_global == 0 and pb.n_local == 2 and pb.n_free == 4
+    out = fit_model(pb, max_nfev=60)
+    got = [(d["dist_k0_T_a"], d["dist_k1_T_a"]) for d in out.local]
+    assert np.allclose(got, truth, atol=1e-3)
+
+
+def test_sobol_starts_fill_the_bounds_deterministically():
+    a = sobol_starts(np.array([1.0, -1.0]), np.array([1000.0, 1.0]), 8)
+    b = sobol_starts(np.array([1.0, -1.0]), np.array([1000.0, 1.0]), 8)
+    np.testing.assert_array_equal(a, b)
+    assert a.shape == (8, 2) and a[:, 0].min() < 10 and a[:, 0].max() > 100  # log-spread
+
+
+def test_whitened_chi2_ignores_coloured_noise_and_sees_a_real_difference():
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(0)
+    n = 6000
+    noise = lfilter([1.0], [1.0, -0.98], 0.05 * rng.standard_normal((n, 1)), axis=0)
+    # a "hypothesis" that follows another realisation of the same slow noise: no better
+    other = lfilter([1.0], [1.0, -0.98], 0.05 * rng.standard_normal((n, 1)), axis=0)
+    chi_null, m = whitened_chi2([noise], [noise - 0.3 * other])
+    # a real step-wise error of a third of the noise's spread
+    err = 0.1 * ((np.arange(n) // 300) % 2)[:, None]
+    chi_real, _ = whitened_chi2([noise + err], [noise])
+    assert delta_ic(chi_null, 1, m) > 0 > delta_ic(chi_real, 1, m)
+    a, _ = ar_filter([noise[:, 0]])
+    assert a.size >= 1 and a[0] == pytest.approx(0.98, abs=0.02)
