@@ -549,13 +549,22 @@ def test_diagnose_names_the_models_as_the_user_wrote_them(tmp_path, capsys):
     capsys.readouterr()
     argv = ["diagnose", "--model", "ss:3", "--params", str(fit), "--inputs", "u", "--outputs"]
     argv += ["y", "--train", data, "--validate", data, "--out", str(tmp_path / "r.json")]
-    assert main(argv) == 2
+    assert main(argv) == 2  # a 2-state fit handed in as the nominal of ss:3
     captured = capsys.readouterr()
     line = _one_error_line_from_text(captured.err)
-    assert "'ss:3'" in line and "model 'ss'" in line and "--augmented-fit" in line
+    assert "'ss:3'" in line and "model 'ss' with 2 states" in line and "--model ss:2" in line
     assert "augmented'" not in line  # the internal wrapper is not the user's model
     assert "model ss:3:" in captured.out and "model augmented" not in captured.out
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ss.json"]
+    # a FitResult of another model: named, with the ways out
+    foptd = tmp_path / "foptd.json"
+    assert main(["identify", "foptd", data, "--input", "u", "--output", "y", "--out", str(foptd)]) == 0
+    capsys.readouterr()
+    argv[argv.index(str(fit))] = str(foptd)
+    assert main(argv) == 2
+    line = _one_error_line_from_text(capsys.readouterr().err)
+    assert "'foptd'" in line and "'ss:3'" in line and "--augmented-fit" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["foptd.json", "ss.json"]
 
 
 def _one_error_line_from_text(err: str) -> str:
@@ -898,7 +907,7 @@ def test_diagnose_a_generic_model_on_a_one_output_recording(tmp_path, capsys):
     _one_error_line(capsys, "'ss:3' is generic", "--inputs", "--outputs")
     assert main([*argv, "--inputs", "u", "--outputs", "y", "--out", str(out), "--quiet"]) == 0
     rep = json.loads(out.read_text())
-    assert rep["outputs"] == ["y"] and rep["model"] == "augmented"  # the ss nominal, wrapped
+    assert rep["outputs"] == ["y"] and rep["model"] == "ss:3"  # the user's name, not the wrapper
     assert "fewer than 8 valid samples" not in capsys.readouterr().err
 
 

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import probability
 from thermogym.errors import ConfigError, RecordingError, UnknownNameError
 from thermogym.fitresult import FitResult, data_entry, load_fit
 from thermogym.identification.diagnosis.context import Context, signatures
@@ -242,6 +243,7 @@ def diagnose(
         )
     if scheme not in ("auto", "split", "crossfit"):
         raise ConfigError(f"scheme is {scheme!r}; expected 'auto', 'split' or 'crossfit'")
+    alpha = probability("alpha", alpha, error=ConfigError)  # a test level in (0, 1)
     if candidates is not None:
         unknown = [c for c in candidates if c not in CATALOGUE or c in ("none", "parameter_error")]
         if unknown:
@@ -435,6 +437,14 @@ def _given(params, model, spec, st):
         )
     if name in ("ss", "foptd") and fit.model == name:
         # a FitResult of the generic model itself: wrapped with the diagnosis' output offsets
+        order = spec.name.partition(":")[2]
+        n_fit = fit.model_config.get("n_states")
+        if name == "ss" and order and n_fit is not None and int(order) != int(n_fit):
+            raise ConfigError(
+                f"the FitResult (params, --params) is of model 'ss' with {n_fit} states; the "
+                f"diagnosed model is {spec.name!r}: give --model ss:{n_fit}, or leave out "
+                f"params (--params) to fit {spec.name!r} here"
+            )
         new_spec = NominalSpec(name, dict(fit.model_config), list(spec.augmentations), spec.name)
         m = new_spec.build()
         th = m.nominal.copy()
@@ -445,7 +455,10 @@ def _given(params, model, spec, st):
                 th[m.param_index(p)] = 0.0  # the FitResult's y_op carries the level
         return th, {p for p in fit.fixed if p in built.param_names}, m, new_spec
     raise ConfigError(
-        f"the FitResult is for model {fit.model!r}; the diagnosis model is {spec.name!r}"
+        f"the FitResult (params, --params) is for model {fit.model!r}, not for the diagnosed "
+        f"model {spec.name!r}; give a FitResult of {spec.name!r}, the augmented FitResult "
+        f"(--augmented-fit) of an earlier diagnosis of {spec.name!r}, or leave out params "
+        "(--params) to fit it here"
     )
 
 
