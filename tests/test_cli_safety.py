@@ -558,7 +558,8 @@ def test_diagnose_names_the_models_as_the_user_wrote_them(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ss.json"]
     # a FitResult of another model: named, with the ways out
     foptd = tmp_path / "foptd.json"
-    assert main(["identify", "foptd", data, "--input", "u", "--output", "y", "--out", str(foptd)]) == 0
+    argv_f = ["identify", "foptd", data, "--input", "u", "--output", "y", "--out", str(foptd)]
+    assert main(argv_f) == 0
     capsys.readouterr()
     argv[argv.index(str(fit))] = str(foptd)
     assert main(argv) == 2
