@@ -250,7 +250,7 @@ def test_every_identify_method_gives_a_fit_the_env_takes_as_it_is(tmp_path, meth
 @pytest.mark.parametrize(
     ("method", "extra", "match"),
     [
-        ("auto", ["--families", "arx,foo"], "--families 'arx,foo'"),
+        ("auto", ["--families", "arx,foo"], "--families: unknown family(s) ['foo']"),
         ("auto", ["--families", ","], "--families"),
         ("arx", ["--expect-sign", "P=up"], "--expect-sign 'P=up'"),
         ("sopdt", ["--expect-sign", "P:T:x=+"], "--expect-sign"),

@@ -244,16 +244,6 @@ def main(method: str, argv: list[str]) -> int:
     args = build_parser(method).parse_args(hoist_recordings(argv))
     args.command = "identify"
     args.expect = parse_expect_sign(args.expect_sign)  # refused early
-    if method == "auto":
-        from thermogym.identification.ssest import AUTO_FAMILIES
-
-        known = (*AUTO_FAMILIES, "armax", "bj")
-        fams = [f.strip() for f in args.families.split(",") if f.strip()]
-        if not fams or any(f not in known for f in fams):
-            raise ConfigError(
-                f"--families {args.families!r}: expected a comma-separated list from "
-                f"{sorted(set(known))}"
-            )
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
     _early(method, args)
