@@ -69,10 +69,7 @@ KNOWN_VIOLATIONS: dict[tuple[str, str], str] = {
 }
 #: Import cycles known today (the modules of each strongly connected component).
 KNOWN_CYCLES: dict[frozenset[str], str] = {
-    # the hypothesis scorer lives inside the orchestrator: the diagnosis issue removes it
-    frozenset(
-        {"thermogym.identification.diagnosis.run", "thermogym.identification.diagnosis.sindy"}
-    ): "diagnosis issue",
+    # (the diagnosis rewrite of issue 15 removed run <-> sindy)
 }
 
 

@@ -65,6 +65,7 @@ from thermogym.identification.linear_fit import (
     exogenous_roles,
     operating_point,
     signal_arrays,
+    signal_ranges,
 )
 from thermogym.models._blas import single_blas_thread
 from thermogym.models.linear import FOPTDModel, discrete_to_foptd
@@ -861,8 +862,6 @@ def fit_foptd(
         "seconds": seconds,
     }
     train_recs = [e.recording for e in exps]
-    from thermogym.identification.pem import signal_ranges  # pem imports this module
-
     # the recorded ranges: what IdentifiedPlant-v0 scales actions and observations by
     settings["signal_ranges"] = signal_ranges(train_recs, exo + list(outputs))
     fit = FitResult.from_model(

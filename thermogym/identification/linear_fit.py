@@ -54,6 +54,7 @@ __all__ = [
     "predict",
     "predict_fit",
     "signal_arrays",
+    "signal_ranges",
     "simulate_recording",
 ]
 
@@ -583,3 +584,23 @@ def simulate_recording(
 def data_entries(train: Sequence[Recording], validate: Sequence[Recording]) -> list[dict[str, Any]]:
     """:func:`thermogym.fitresult.data_entry` of training and validation recordings."""
     return [data_entry(r, "train") for r in train] + [data_entry(r, "validation") for r in validate]
+
+
+def signal_ranges(recordings: Sequence[Recording], names: Sequence[str]) -> dict[str, list[float]]:
+    """Smallest and largest value of each named column over the recordings.
+
+    Stored in FitResults as ``settings["signal_ranges"]``: environments scale
+    actions and observations from them.
+
+    Examples
+    --------
+    >>> rec = Recording(np.arange(3.0), {"u": np.array([1.0, 4.0, 2.0])})
+    >>> signal_ranges([rec], ["u"])
+    {'u': [1.0, 4.0]}
+    """
+    out = {}
+    for c in names:
+        v = np.concatenate([np.asarray(r[c], dtype=float) for r in recordings])
+        v = v[np.isfinite(v)]
+        out[c] = [float(v.min()), float(v.max())] if v.size else [float("nan")] * 2
+    return out

@@ -89,6 +89,7 @@ from thermogym.identification.linear_fit import (
     exogenous_roles,
     operating_point,
     signal_arrays,
+    signal_ranges,
 )
 from thermogym.models._blas import blas_threads, single_blas_thread
 from thermogym.models.linear import StateSpaceModel, c2d_zoh, d2c_zoh
@@ -1249,8 +1250,6 @@ def system_fitresult(
         "outputs": {c: float(y_op[k]) for k, c in enumerate(prob.outputs)},
     }
     if prob.recordings:  # the recorded ranges: what IdentifiedPlant-v0 scales by
-        from thermogym.identification.pem import signal_ranges  # pem imports this module
-
         st.setdefault("signal_ranges", signal_ranges(prob.recordings, exo + prob.outputs))
     # the model itself carries the operating point: every simulation path applies it
     model = StateSpaceModel(**{**model.config(), "u_op": u_op.tolist(), "y_op": y_op.tolist()})

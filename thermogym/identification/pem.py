@@ -60,7 +60,7 @@ from thermogym._checks import choice, integer
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.fitresult import FitResult
 from thermogym.identification.advice import check_fit, structure_warnings
-from thermogym.identification.linear_fit import data_entries, evaluate_fit
+from thermogym.identification.linear_fit import data_entries, evaluate_fit, signal_ranges
 from thermogym.identification.metrics import nrmse
 from thermogym.identification.n4sid import N4SIDProblem, prepare_problem
 from thermogym.models._blas import blas_threads
@@ -98,26 +98,6 @@ _DEFAULT_FOCUS = {
 
 
 # =================================================================== data
-def signal_ranges(recordings: Sequence[Recording], names: Sequence[str]) -> dict[str, list[float]]:
-    """Smallest and largest value of each named column over the recordings.
-
-    Stored in FitResults as ``settings["signal_ranges"]``: environments scale
-    actions and observations from them.
-
-    Examples
-    --------
-    >>> rec = Recording(np.arange(3.0), {"u": np.array([1.0, 4.0, 2.0])})
-    >>> signal_ranges([rec], ["u"])
-    {'u': [1.0, 4.0]}
-    """
-    out = {}
-    for c in names:
-        v = np.concatenate([np.asarray(r[c], dtype=float) for r in recordings])
-        v = v[np.isfinite(v)]
-        out[c] = [float(v.min()), float(v.max())] if v.size else [float("nan")] * 2
-    return out
-
-
 def _regressors(
     u: NDArray[np.float64], y: NDArray[np.float64], na: int, nb: Sequence[int], nk: Sequence[int]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
