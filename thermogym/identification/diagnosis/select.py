@@ -624,8 +624,15 @@ def forward_selection(
     finals = [(steps, total_ic(nominal, steps[-1], data)) for steps, _, _ in paths if steps]
     if finals:
         steps, _ = min(finals, key=lambda x: x[1])
-        sel.steps = list(steps)
+        # paths that reach the same combination in another order: the order is the one whose
+        # first effect explained most on its own (the shares are counted along the order)
+        same = [s for s, _ in finals if _labels(s) == _labels(steps)]
+        sel.steps = list(min(same, key=lambda s: s[0].delta_ic))
     return sel
+
+
+def _labels(steps: Sequence[Hypothesis]) -> frozenset[str]:
+    return frozenset(h.last.label for h in steps if h.last is not None)
 
 
 def shares(nominal: Hypothesis, steps: Sequence[Hypothesis]) -> list[float]:
