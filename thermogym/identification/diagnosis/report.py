@@ -155,9 +155,25 @@ class DiagnosisReport:
             )
         where = ", ".join(d["signal"] for d in self.located.get("signals", [])[:2])
         if named == ["none"]:
+            flagged = [
+                o
+                for part in ("validation", "train")
+                for o, t in self.detection.get(part, {}).items()
+                if isinstance(t, dict) and t.get("significant")
+            ]
+            if not flagged:
+                return lead + (
+                    "No significant mismatch: the model reproduces the recordings to within "
+                    "their noise."
+                )
+            b = self.baseline.get("validation", {}).get("mean", math.nan)
+            n = self.baseline.get("nominal_validation", {}).get("mean", math.nan)
             return lead + (
-                "No significant mismatch: the model reproduces the recordings to within their "
-                "noise."
+                f"No missing physics named: the residual of {', '.join(dict.fromkeys(flagged))} "
+                "is not white, but no hypothesis explains it on held-out data and the nominal "
+                "model predicts them at least as well as a plain ARX (held-out mean NRMSE fit "
+                f"{n:.3f} against {b:.3f}): what is left is coloured noise or an effect outside "
+                "the catalogue."
             )
         if named == ["unexplained"]:
             return lead + (

@@ -590,6 +590,8 @@ def forward_selection(
     """
     sel = Selection()
     paths: list[tuple[list[Hypothesis], list[Candidate], bool]] = [([], list(candidates), False)]
+    # per path (by the id of its step list): the candidates its last round tried and rejected
+    rejected: dict[int, set[str]] = {}
     for r in range(max_effects):
         grown: list[tuple[list[Hypothesis], list[Candidate], bool]] = []
         for steps, pool, done in paths:
@@ -613,6 +615,7 @@ def forward_selection(
                 sel.passed.append(oks)
             winners = [h for h, ok in zip(fitted, oks, strict=True) if ok]
             if not winners:
+                rejected[id(steps)] = {h.last.label for h in [*fitted, *rest] if h.last}
                 grown.append((steps, pool, True))
                 continue
             for w in winners[: beam if r == 0 else 1]:
@@ -621,7 +624,18 @@ def forward_selection(
         paths = grown
         if all(done for _, _, done in paths):
             break
-    finals = [(steps, total_ic(nominal, steps[-1], data)) for steps, _, _ in paths if steps]
+    ended = [steps for steps, _, _ in paths if steps]
+    # a combination that another path reached without an effect it then tried and rejected
+    # is that path plus a rejected effect: the held-out test already said no to it
+    kept = [
+        s
+        for s in ended
+        if not any(
+            _labels(o) < _labels(s) and (_labels(s) - _labels(o)) & rejected.get(id(o), set())
+            for o in ended
+        )
+    ]
+    finals = [(steps, total_ic(nominal, steps[-1], data)) for steps in kept or ended]
     if finals:
         steps, _ = min(finals, key=lambda x: x[1])
         # paths that reach the same combination in another order: the order is the one whose
