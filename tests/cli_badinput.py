@@ -970,7 +970,7 @@ _INTERRUPTS: list[tuple[list[str], str, tuple[str, str], int]] = [
       "--out", "old.json"], "old.json", ("thermogym.identification.pem", "pem"), 0),
     (["diagnose", "--model", "strut", "--train", "strut.csv", "--validate", "strut.csv", "--out",
       "old.json", "--quiet"], "old.json",
-     ("thermogym.identification.diagnosis.run", "fit_hypothesis"), 1),
+     ("thermogym.identification.diagnosis.select", "fit_hypothesis"), 1),
     (["bench", "--env", "AXT211Valve", "--controllers", "onoff,pid", "--seeds", "1", "--out",
       "oldb", "--no-progress", "--backend", "serial"], "oldb/earlier.txt",
      ("thermogym.controllers.harness", "run_episode"), 1),
