@@ -308,7 +308,7 @@ def test_batched_kernel_loop_over_systems_vectorises():
 
     from thermogym.models import axt211 as mod
 
-    opts = {k: v for k, v in mod._soa_chunk.targetoptions.items() if k != "cache"}
+    opts = {k: v for k, v in mod._soa_chunk.targetoptions.items() if k not in ("cache", "nopython")}
     fresh = nb.njit(**opts)(mod._soa_chunk.py_func)
     m = AXT211()
     B, T = 32, 3
