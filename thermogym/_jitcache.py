@@ -128,7 +128,7 @@ def cache_depends_on(dispatcher: Any, *modules: ModuleType) -> Any:
     slower start, never stale code. A closure kernel also gets a cache index key
     that is stable across processes (:class:`_StableIndexKey`).
     """
-    cache = getattr(dispatcher, "_cache", None)
+    cache: Any = getattr(dispatcher, "_cache", None)
     cache_file = getattr(cache, "_cache_file", None)
     if cache_file is None or not hasattr(cache_file, "_source_stamp"):
         if hasattr(dispatcher, "disable_caching"):
