@@ -16,7 +16,7 @@ help:
 	@echo "make demo      run the main job (thermogym demo) into $(OUT)/report.html"
 	@echo "make test      run the default test suite (installs into .venv on first use)"
 	@echo "make test-all  run every test, slow ones and optional tools included"
-	@echo "make lint      ruff check + format check"
+	@echo "make lint      ruff check + format check + mypy (type check of the package)"
 	@echo "make bench     run the benchmarks in benchmarks/"
 
 $(VENV)/bin/python:
@@ -73,6 +73,7 @@ demo: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check thermogym tests benchmarks scripts
 	$(VENV)/bin/ruff format --check thermogym tests benchmarks scripts
+	$(VENV)/bin/mypy
 
 format: $(STAMP)
 	$(VENV)/bin/ruff format thermogym tests benchmarks scripts
@@ -88,4 +89,4 @@ bench: $(STAMP_ALL)
 	done
 
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache .mypy_cache

@@ -420,6 +420,24 @@ def test_spindle_runs_an_identified_state_space_model():
         np.testing.assert_allclose(x[0], y[0], rtol=1e-6, atol=1e-4)
 
 
+def test_spindle_refuses_a_state_space_model_without_sample_period():
+    # a model without dt cannot be stepped every control period: said, not a TypeError
+    from thermogym.fitresult import FitResult
+    from thermogym.models.linear import StateSpaceModel
+    from thermogym.models.spindle import SPINDLE_OUTPUTS, SpindleModel
+
+    net = SpindleModel()
+    Ad, Bd, arrays = net.discrete(net.theta(), 60.0)
+    ss = StateSpaceModel.from_matrices(
+        Ad[0], Bd[0], arrays.H, inputs=["speed"], disturbances=["T_amb"],
+        outputs=list(SPINDLE_OUTPUTS),
+    )  # fmt: skip
+    assert ss.dt is None
+    fit = FitResult.from_model(ss, method="n4sid-like")
+    with pytest.raises(ConfigError, match=r"no sample period \(dt is None\)"):
+        gym.make("thermogym/SpindleThermal-v0", params=fit.to_dict(), episode_s=1800.0)
+
+
 def test_strut_elongation_and_compensation():
     from thermogym.models.strut import StrutModel
 

@@ -725,6 +725,33 @@ def test_check_command_reports_the_fit(tmp_path, lag_data, capsys):
     assert main([str(cfg), str(data), "--set", "K"]) == 2
 
 
+def test_check_command_refuses_a_cosimulation_by_name(tmp_path, lag_data, capsys):
+    # a co-simulation has no predict(): said with exit status 2, not an AttributeError
+    from thermogym.identification.external.__main__ import main
+    from thermogym.recording import write_recording
+
+    cfg = {
+        "type": "cosim",
+        "models": {
+            "heater": {
+                "type": "callable",
+                "path": str(DATA / "lag_func.py"),
+                "function": "lag",
+                "parameters": PARAMS,
+                "inputs": {"u": "P_heater"},
+                "outputs": {"y": "T_h"},
+            },
+        },
+        "evaluation": {"backend": "serial"},
+    }
+    path = tmp_path / "cosim.json"
+    path.write_text(json.dumps(cfg), encoding="utf-8")
+    data = tmp_path / "lag.csv"
+    write_recording(lag_data, data)
+    assert main([str(path), str(data)]) == 2
+    assert "co-simulation is checked model by model" in capsys.readouterr().err
+
+
 # ------------------------------------------------------------------ through the coordinator
 def test_the_coordinator_identifies_an_external_model(lag_data, fits):
     coordinator = pytest.importorskip("thermogym.identification.coordinator")

@@ -270,9 +270,9 @@ def integer(
     elif isinstance(value, numbers.Integral):
         n = int(value)
     elif isinstance(value, numbers.Real) and math.isfinite(float(value)):
-        if float(value) != int(value):
+        if float(value) != math.trunc(value):
             raise error(f"{name} = {show(value)}, expected {expected}")
-        n = int(value)
+        n = int(float(value))  # exact: float(value) equals the whole number trunc(value)
     else:
         raise error(f"{name} = {show(value)}, expected {expected}")
     if (lo is not None and n < lo) or (hi is not None and n > hi):
@@ -320,7 +320,7 @@ def shape(
     thermogym.errors.ShapeError: u has shape (10, 3), expected (N, 2)
     """
     try:
-        a = np.asarray(array, dtype=dtype)
+        a: NDArray[Any] = np.asarray(array, dtype=dtype)
     except (TypeError, ValueError) as e:
         raise ShapeError(f"{name} cannot be read as an array of {dtype.__name__}: {e}") from e
     want = "(" + ", ".join("N" if n is None else str(n) for n in expected)

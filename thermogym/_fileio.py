@@ -37,8 +37,9 @@ __all__ = [
     "to_jsonable",
 ]
 
-#: A callable that writes the complete content of a file to the path it is given.
-WriteFn = Callable[[Path], None]
+#: A callable that writes the complete content of a file to the path it is given (what
+#: it returns, such as ``Path.write_bytes``'s byte count, is ignored).
+WriteFn = Callable[[Path], object]
 
 
 def _temp_path(target: Path) -> Path:

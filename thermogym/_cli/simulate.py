@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -88,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         raise ConfigError("name a MODEL or give --params fit.json")
     if sets:
-        theta = model.theta(theta, **sets)
+        overrides: dict[str, Any] = dict(sets)  # parameter name -> value
+        theta = model.theta(theta, **overrides)
     (rec,) = load_recordings([args.inputs], "--inputs", args)
     rec.validate_for(model, outputs=False)
     rec.check_values([s.name for s in model.exogenous])

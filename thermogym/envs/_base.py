@@ -199,13 +199,13 @@ class Engine:
     """
 
     name: ClassVar[str] = "engine"
-    obs_names: ClassVar[tuple[str, ...]] = ()
-    obs_units: ClassVar[tuple[str, ...]] = ()
-    sig_names: ClassVar[tuple[str, ...]] = ()
-    sig_units: ClassVar[tuple[str, ...]] = ()
-    noise_channels: ClassVar[tuple[str, ...]] = ()
+    obs_names: tuple[str, ...] = ()
+    obs_units: tuple[str, ...] = ()
+    sig_names: tuple[str, ...] = ()
+    sig_units: tuple[str, ...] = ()
+    noise_channels: tuple[str, ...] = ()
     #: Panels of the rendered figure: (y label, signal names).
-    panels: ClassVar[tuple[tuple[str, tuple[str, ...]], ...]] = ()
+    panels: tuple[tuple[str, tuple[str, ...]], ...] = ()
 
     _dt: float
     _horizon: int
@@ -242,7 +242,7 @@ class Engine:
         """Single-plant action space."""
         raise NotImplementedError
 
-    def observation_space(self) -> spaces.Box:
+    def observation_space(self) -> spaces.Box[np.float32]:
         """Single-plant observation space (sensor ranges)."""
         lo, hi = self.obs_bounds()
         return spaces.Box(lo, hi, dtype=np.float32)
@@ -335,7 +335,7 @@ class Engine:
             # only plants that step now: a plant about to be reset draws nothing more here
             full = cur >= NOISE_BLOCK if active is None else (cur >= NOISE_BLOCK) & active
             for b in np.flatnonzero(full):
-                self.refill(int(b), rngs[b])
+                self.refill(int(b), rngs[int(b)])
         if active is None:
             self.active[:] = True
         else:
@@ -369,7 +369,7 @@ class Engine:
         """
         if is_overrides(fit):  # {"C_P": 20}: these values on top of the running parameters
             theta = self.model.theta(self.base_theta, **dict(fit))  # type: ignore[arg-type]
-            new = FitResult.from_model(
+            new: FitResult | None = FitResult.from_model(
                 self.model,
                 theta[0],
                 method=f"{self.plant.fit.method or 'nominal'} with overrides",
@@ -394,8 +394,9 @@ class Engine:
         }
         self.plant.fit = new
         self.base_theta = theta
-        if self.sampler is not None and getattr(self, "_sampler_spec", None):
-            self.sampler = make_sampler(new, self.model, **self._sampler_spec)
+        sampler_spec = getattr(self, "_sampler_spec", None)
+        if self.sampler is not None and sampler_spec:
+            self.sampler = make_sampler(new, self.model, **sampler_spec)
         self.set_theta(range(self.B) if rows is None else rows, theta)
         return {
             "old_fingerprint": old.fingerprint(),
@@ -421,7 +422,7 @@ def _render(env: Any, history: list[NDArray[np.float64]], mode: str) -> Any:
     data = np.array(history) if history else np.zeros((0, len(e.sig_names)))
     fig = envplots.episode_figure(
         title=f"{env.spec.id if env.spec else type(env).__name__}",
-        time_s=e.dt * np.arange(data.shape[0]),
+        time_s=e.dt * np.arange(data.shape[0], dtype=np.float64),
         names=e.sig_names,
         units=e.sig_units,
         data=data,
@@ -482,13 +483,14 @@ class ThermoEnv(gym.Env[NDArray[np.float32], Any]):
     ``__init__`` and call :meth:`_setup`.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 4}
+    # gymnasium declares metadata an instance attribute (a class default here)
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array", "human"], "render_fps": 4}  # noqa: RUF012
     #: Environment name used in messages (set by each environment class).
     env_name: ClassVar[str] = ""
     #: Configuration dataclass of the keyword arguments (set by each environment class).
     config_cls: ClassVar[type]
     #: Engine class, built as ``engine_cls(num_plants, config)``.
-    engine_cls: ClassVar[Callable[[int, Any], Engine]]
+    engine_cls: Callable[[int, Any], Engine]
     _e: Engine
 
     def __init__(
@@ -587,7 +589,7 @@ class ThermoEnv(gym.Env[NDArray[np.float32], Any]):
     def history(self) -> dict[str, NDArray[np.float64]]:
         """Recorded episode so far (``record=True`` or a render mode): signal -> array."""
         data = np.array(self._history) if self._history else np.zeros((0, len(self._e.sig_names)))
-        out = {"time": self._e.dt * np.arange(data.shape[0])}
+        out = {"time": self._e.dt * np.arange(data.shape[0], dtype=np.float64)}
         out.update({n: data[:, j] for j, n in enumerate(self._e.sig_names)})
         return out
 

@@ -170,13 +170,21 @@ class LTIEngine(Engine):
         self.all_linear = True
         self.scratch = np.zeros((B, 2 + nx))  # per plant: u (2), then x scratch (n)
         self._nets: dict[int, Any] = {}
+        self._ss_steps = 1  # model samples per control period (a state-space model)
         if isinstance(m, StateSpaceModel):
+            if m.dt is None:
+                raise ConfigError(
+                    f"{self.name}: the state-space model has no sample period (dt is None); "
+                    f"the environment steps it every control_period {self._dt_ctrl} s, so it "
+                    "needs a discrete model with its dt"
+                )
             r = self._dt_ctrl / m.dt
             if abs(r - round(r)) > 1e-9 or round(r) < 1:
                 raise ConfigError(
                     f"{self.name}: control_period {self._dt_ctrl} s is not a whole multiple of "
                     f"the state-space model's sample period {m.dt} s"
                 )
+            self._ss_steps = round(r)
         elif not isinstance(m, ThermalNetworkModel):
             raise ConfigError(f"{self.name}: model {m.name!r} is not a linear thermal model")
 
@@ -196,7 +204,7 @@ class LTIEngine(Engine):
         if isinstance(m, StateSpaceModel):
             mats = m.matrices(theta)
             A, Bm, C, D = mats.A[0], mats.B[0], mats.C[0], mats.D[0]
-            steps = round(self._dt_ctrl / m.dt)
+            steps = self._ss_steps
             Ad = np.linalg.matrix_power(A, steps)
             Bd = sum((np.linalg.matrix_power(A, i) for i in range(steps)), np.zeros_like(A)) @ Bm
             H, h0 = C, np.zeros(C.shape[0])

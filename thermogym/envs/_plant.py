@@ -150,7 +150,6 @@ def resolve_plant(
     rig: str | None,
     rig_effects: Sequence[Any] = (),
     stepwise_effects: Sequence[str] = (),
-    rig_model: Callable[[Model, Sequence[str]], Model] | None = None,
     specimen: Mapping[str, float] | Any | None = None,
     rig_options: Mapping[str, Any] | None = None,
 ) -> Plant:
@@ -173,10 +172,6 @@ def resolve_plant(
     stepwise_effects : sequence of str
         The rig effects the environment can apply step by step (the others act
         on whole recordings: delays, lags, hidden disturbances).
-    rig_model : callable, optional
-        ``rig_model(rig_plant_model, internal_effects) -> Model``: the model the
-        environment runs for the rig (e.g. the room around the rig's
-        actuator); default: the rig's own model.
     specimen : mapping or Specimens, optional
         The rig's specimen (manufacturing spread): parameter overrides, or a
         :class:`~thermogym.rigs.base.Specimens` of one for a true-plant rig.
@@ -213,7 +208,9 @@ def resolve_plant(
         if fit is None and not callable(default):
             fit = load_params(default, models, env)
         if fit is None:
-            model = default()  # type: ignore[operator]
+            if not callable(default):  # default=None: nothing to run
+                raise ConfigError(f"{env}: no parameters given and no nominal model")
+            model = default()
             fit = FitResult.from_model(model, method="nominal", notes="package nominal values")
         else:
             model = fit.build_model()
@@ -242,32 +239,29 @@ def resolve_plant(
     r = get_rig(rig, rig_effects, **dict(rig_options or {}))
     if specimen is not None and (not isinstance(specimen, Mapping) or specimen):
         r = r.with_specimen(specimen)
-    if getattr(r, "plant_cls", None) is not None:
-        # a true plant of the rig's own: the environment steps it; the model stays nominal
-        model = default() if callable(default) else load_params(default, models, env).build_model()  # type: ignore[union-attr]
-        spec = r.specimen
-        # the model's nominal parameters (shapes and names only) and, in its arrays, the rig
-        # specimen's physical parameters: the fingerprint tells one rig specimen from another
-        fit = FitResult.from_model(
-            model,
-            method="nominal",
-            notes=f"plant='rig': the virtual rig {rig!r} runs, not this model",
-            arrays={"rig_specimen": [float(spec[n][0]) for n in spec.names]},
-            settings={"rig": rig, "rig_specimen_names": list(spec.names)},
-        )
-        return Plant(
-            model, fit.theta(model), "rig", fit, tuple(r.effects), dict(r.sensors), r,
-            r.plant(), r.specimen,
-        )  # fmt: skip
-    base, overrides = r.plant()
-    model = base
-    if rig_model is not None:
-        internal = list(getattr(base, "effects", ()))
-        model = rig_model(base, internal)
-    overrides = {k: v for k, v in overrides.items() if k in model.param_names}
-    theta = model.theta(overrides)
-    fit = FitResult.from_model(model, theta[0], method="rig", notes=f"virtual rig {rig!r}")
-    return Plant(model, theta, "rig", fit, tuple(r.effects), dict(r.sensors), r)
+    # every rig has a true plant of its own (Rig.plant raises ConfigError for one without):
+    # the environment steps it; the model stays nominal
+    if callable(default):
+        model = default()
+    else:
+        nominal = load_params(default, models, env)
+        if nominal is None:
+            raise ConfigError(f"{env}: no nominal model (default is None)")
+        model = nominal.build_model()
+    spec = r.specimen
+    # the model's nominal parameters (shapes and names only) and, in its arrays, the rig
+    # specimen's physical parameters: the fingerprint tells one rig specimen from another
+    fit = FitResult.from_model(
+        model,
+        method="nominal",
+        notes=f"plant='rig': the virtual rig {rig!r} runs, not this model",
+        arrays={"rig_specimen": [float(spec[n][0]) for n in spec.names]},
+        settings={"rig": rig, "rig_specimen_names": list(spec.names)},
+    )
+    return Plant(
+        model, fit.theta(model), "rig", fit, tuple(r.effects), dict(r.sensors), r,
+        r.plant(), r.specimen,
+    )  # fmt: skip
 
 
 def make_sampler(

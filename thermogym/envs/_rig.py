@@ -99,7 +99,10 @@ class RigSensors:
         return z
 
     def start(
-        self, rows: Sequence[int], truth: NDArray[np.float64], rngs: Sequence[np.random.Generator]
+        self,
+        rows: Sequence[int] | NDArray[np.integer[Any]],
+        truth: NDArray[np.float64],
+        rngs: Sequence[np.random.Generator],
     ) -> NDArray[np.float64]:
         """Start the sensors of ``rows`` on ``truth`` (len(rows), n_ch); their first readings."""
         nc = len(self.streams)

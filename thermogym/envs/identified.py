@@ -85,7 +85,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -289,9 +289,12 @@ class _IdentifiedEngine(Engine):
                 r = (yo - 1.0, yo + 1.0)
             self.y_lo[j], self.y_hi[j] = r
         exo = ins + dis
-        self._op_from_model = hasattr(model, "operating_point")
-        if self._op_from_model:  # ss / foptd carry their operating point themselves
-            u0, y0 = model.operating_point(plant.theta)
+        #: ``model.operating_point`` where the model has one (ss, foptd), else None
+        self._operating_point: (
+            Callable[[NDArray[np.float64]], tuple[NDArray[np.float64], NDArray[np.float64]]] | None
+        ) = getattr(model, "operating_point", None)
+        if self._operating_point is not None:  # ss / foptd carry their operating point
+            u0, y0 = self._operating_point(plant.theta)
             self.u_op, self.y_op = u0[0].astype(float), y0[0].astype(float)
         else:  # polynomial and SOPDT fits keep it in the settings
             self.u_op = np.array([float(u_op_map.get(c, 0.0)) for c in exo])
@@ -435,8 +438,8 @@ class _IdentifiedEngine(Engine):
             self.Bm[b, :n] = r.B[0]
             self.C[b, :, :n] = r.C[0]
             self.D[b] = r.D[0]
-            if self._op_from_model:  # an FOPTD's offsets y0 are parameters (randomised too)
-                u0, y0 = self.model.operating_point(th[k : k + 1] if th.shape[0] > 1 else th)
+            if self._operating_point is not None:  # an FOPTD's y0 are parameters (randomised too)
+                u0, y0 = self._operating_point(th[k : k + 1] if th.shape[0] > 1 else th)
                 self.uop[b], self.yop[b] = u0[0], y0[0]
 
     def randomize(self, method: str | None, **kwargs: Any) -> None:

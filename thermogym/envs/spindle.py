@@ -339,7 +339,7 @@ class _SpindleEngine(LTIEngine):
 
     def _reset_row(self, b: int, rng: np.random.Generator) -> None:
         mean = draw(rng, self.ambient)
-        t = self._dt * np.arange(self._horizon + 1)
+        t = self._dt * np.arange(self._horizon + 1, dtype=np.float64)
         self.amb[b] = ambient_day(rng, t, start_clock_h=self.clock, mean_C=mean, swing_K=self.swing)
         self.x[b] = self.rest_state(b, np.array([self.n0, self.amb[b, 0]]))
         self.acc[b, _A_UPREV] = self.n0

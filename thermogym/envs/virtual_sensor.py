@@ -54,7 +54,7 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
@@ -67,6 +67,11 @@ __all__ = ["VirtualSensorObservation"]
 
 Source = int | str | Callable[[Any, Mapping[str, Any], Any], float]
 _MODES = ("estimate", "truth")
+
+
+def _true_outputs(env: Any) -> Any:
+    # the wrapped environment's noise-free signals (a thermogym environment's own method)
+    return env.unwrapped.true_outputs()
 
 
 class VirtualSensorObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
@@ -241,7 +246,11 @@ class VirtualSensorObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
         if callable(where):
             return where
         i = self._index(what, where)
-        return lambda obs, info, action, i=i: float(obs[i])
+
+        def read(obs: Any, info: Mapping[str, Any], action: Any) -> float:
+            return float(obs[i])
+
+        return read
 
     @staticmethod
     def _read(srcs: Sequence[Callable[..., float]], obs: Any, info: Any, action: Any) -> NDArray:
@@ -250,7 +259,7 @@ class VirtualSensorObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
     def _truth(self, obs: NDArray[np.float64]) -> dict[str, float]:
         fn = self._truth_fn
         if fn is None and hasattr(self.env.unwrapped, "true_outputs"):
-            fn = lambda env: env.unwrapped.true_outputs()  # noqa: E731
+            fn = _true_outputs
         out: dict[str, float] = {}
         if fn is not None:
             vals = fn(self.env)
@@ -301,7 +310,7 @@ class VirtualSensorObservation(gym.Wrapper, gym.utils.RecordConstructorArgs):
         self._prev = (obs, info)
         return self._observe(obs, est, info), info
 
-    def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """Step the environment, then propagate and correct the estimator."""
         obs, reward, terminated, truncated, info = self.env.step(action)
         info = dict(info)

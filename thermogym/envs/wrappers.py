@@ -129,9 +129,10 @@ class ParameterRefresh(gym.Wrapper):
         fit = self._poll()
         if fit is None:
             return None
-        if fit.fingerprint() == self.env.unwrapped.fit.fingerprint():
+        unwrapped: Any = self.env.unwrapped  # a thermogym environment (checked in __init__)
+        if fit.fingerprint() == unwrapped.fit.fingerprint():
             return None
-        rec = self.env.unwrapped.set_parameters(fit)
+        rec = unwrapped.set_parameters(fit)
         rec.update(
             episode=self._episode,
             step=self._step,
@@ -217,7 +218,7 @@ class DomainRandomization(gym.Wrapper):
         bounds: Mapping[str, tuple[float, float]] | None = None,
     ) -> None:
         super().__init__(env)
-        u = env.unwrapped
+        u: Any = env.unwrapped  # a thermogym environment (duck-typed: checked here)
         if not hasattr(u, "set_randomization"):
             raise ConfigError(f"DomainRandomization needs a thermogym environment; got {type(u)}")
         if fit is not None:
@@ -232,7 +233,7 @@ class DomainRandomization(gym.Wrapper):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         """Reset with a freshly drawn parameter set (reported in ``info["parameters"]``)."""
         obs, info = self.env.reset(seed=seed, options=options)
-        u = self.env.unwrapped
+        u: Any = self.env.unwrapped
         info["parameters"] = dict(
             zip(u.model.param_names, np.asarray(u.theta)[0].tolist(), strict=True)
         )

@@ -181,7 +181,7 @@ def _evaluate(
             r[p_] += phi[p_] @ tgt
             for q in range(p_, m + 1):
                 G[p_, q] += phi[p_] @ phi[q]
-        yy += tgt @ tgt
+        yy += float(tgt @ tgt)
         n_rows += tgt.size
     G = np.triu(G) + np.triu(G, 1).T
     scale = np.sqrt(np.maximum(np.diag(G), 1e-300))
@@ -194,9 +194,10 @@ def _evaluate(
     if not (0.0 < a < 1.0) or not np.isfinite(th).all():
         # the unconstrained pole left (0, 1) (slow output that has not settled, noise):
         # the best stable lag by output error instead, the pole bounded
-        th = _stable_fit(us, ys, d, hold)
-        if th is None:
+        th_stable = _stable_fit(us, ys, d, hold)
+        if th_stable is None:
             return np.inf, np.full(m + 1, np.nan), G, np.inf, n_rows
+        th = th_stable
         rss = 0.0
         for u, y in zip(us, ys, strict=True):
             # equation residual of (9) with the constrained coefficients
@@ -658,13 +659,13 @@ def _stderr(f: OutputFit, dt: float) -> tuple[float, NDArray[np.float64]]:
     la = np.log(a)
     gT = np.zeros(b.size + 1)
     gT[0] = dt / (a * la * la)  # ∂T/∂a, T = −Δt / ln a       (11)
-    sT = float(np.sqrt(max(gT @ f.cov @ gT, 0.0)))
+    sT = float(np.sqrt(max(float(gT @ f.cov @ gT), 0.0)))
     sK = np.empty(b.size)
     for i in range(b.size):
         g = np.zeros(b.size + 1)
         g[0] = b[i] / (1 - a) ** 2  # ∂K/∂a, K = b / (1 − a)     (12)
         g[1 + i] = 1.0 / (1 - a)  # ∂K/∂b
-        sK[i] = float(np.sqrt(max(g @ f.cov @ g, 0.0)))
+        sK[i] = float(np.sqrt(max(float(g @ f.cov @ g), 0.0)))
     return sT, sK
 
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numba as nb
 import numpy as np
@@ -155,7 +155,8 @@ def fit_ptc_polynomial(
         )
     tau = (Ta - 65.0) / 35.0
     X = np.vander(tau, 6, increasing=True)  # columns τ^0 … τ^5, (14)
-    coeffs, *_ = np.linalg.lstsq(X, Ra, rcond=None)
+    # float64 in and out (numpy's stubs say floating[Any])
+    coeffs = cast(NDArray[np.float64], np.linalg.lstsq(X, Ra, rcond=None)[0])
     e = X @ coeffs - Ra
     cov, se, _, _, _ = covariance_from_jacobian(X, e)
     if cov is None:
@@ -221,8 +222,8 @@ class AXT211Mechanics:
     name = "axt211-mechanics"
     version = "1"
     batched = True
-    input_names = ("T_P",)
-    output_names = ("x_P", "x_V")
+    input_names: tuple[str, ...] = ("T_P",)
+    output_names: tuple[str, ...] = ("x_P", "x_V")
     all_names = ("T_P0", "kP_a", "kP_b", "kP_c", "tau_P", "x_max", "c_backlash")
     max_step = 1.0
 

@@ -535,7 +535,7 @@ def evaluate_fit(
     recs = recording_list(recordings, "evaluation")
     outs = list(fit.build_model().output_names)
     per: dict[str, Any] = {}
-    vals = []
+    vals: list[Any] = []  # each recording's MNRMSE
     for i, rec in enumerate(recs):
         missing = [c for c in outs if c not in rec.columns]
         if missing:

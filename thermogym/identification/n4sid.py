@@ -69,7 +69,7 @@ import time
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numba as nb
 import numpy as np
@@ -381,7 +381,8 @@ class HankelAccumulator:
         Ht = np.empty((ncol, self.rows))
         Ht[:, : w * self.m] = Uw.transpose(0, 2, 1).reshape(ncol, w * self.m)
         Ht[:, w * self.m :] = Yw.transpose(0, 2, 1).reshape(ncol, w * self.p)
-        self._R = np.linalg.qr(np.vstack([self._R, Ht]), mode="r")
+        # numpy's stubs type every mode as QRResult; mode="r" returns R alone
+        self._R = cast(NDArray[np.float64], np.linalg.qr(np.vstack([self._R, Ht]), mode="r"))
         self.n_columns += ncol
 
     def end_experiment(self) -> None:
@@ -673,7 +674,8 @@ class N4SIDDecomposition:
             G = self._W1inv @ G
         C = G[:p].copy()
         # shift invariance: Γ_{i−1}(first i−1 block rows) A = Γ(last i−1 block rows)
-        A = np.linalg.lstsq(G[:-p], G[p:], rcond=None)[0]
+        # (float64 in, float64 out: numpy's stubs say floating[Any])
+        A = cast(NDArray[np.float64], np.linalg.lstsq(G[:-p], G[p:], rcond=None)[0])
         lam0 = np.linalg.eigvals(A)
         if stable or self.decimate > 1:
             A = _mirror_schur(A, max_radius if stable else np.inf, self.decimate > 1)
@@ -689,7 +691,7 @@ class N4SIDDecomposition:
         r = self.decimate
         # block means have a feedthrough D̄ = D + C N B even when the plant has none
         coarse_d = feedthrough or r > 1
-        BD = np.linalg.lstsq(self._Ui.T, lhs.T, rcond=None)[0].T
+        BD = cast(NDArray[np.float64], np.linalg.lstsq(self._Ui.T, lhs.T, rcond=None)[0].T)
         if not coarse_d:
             BD[n:] = 0.0
         rho = lhs - BD @ self._Ui
@@ -711,12 +713,15 @@ class N4SIDDecomposition:
             # be inverted safely: M is near singular for modes that oscillate or decay
             # within a block)
             if self._fine is not None:
+                assert self._data is not None  # kept with the fine-rate data
                 C, D = _fine_output_map(
                     A, B, A_id, B_id, self._data, self._fine, x0s, r, feedthrough
                 )
             else:
                 Mm, Nm = _block_mean_maps(A, r)
-                C = np.linalg.lstsq(Mm.T, C_id.T, rcond=1e-6)[0].T  # C̄ = C M
+                C = cast(
+                    NDArray[np.float64], np.linalg.lstsq(Mm.T, C_id.T, rcond=1e-6)[0].T
+                )  # C̄ = C M
                 D = D_id - C @ Nm @ B if feedthrough else np.zeros_like(D_id)
         # Kalman gain of the innovation form (3): DARE on the residual covariances
         K = np.zeros((n, p))
@@ -875,7 +880,7 @@ def _regress_bd(
             if est_x0:
                 Phi[:, nb_ + nd + e * n : nb_ + nd + (e + 1) * n] = Psi[:, q, :]
             Phi[:, -1] = y[:, q]
-            R = np.linalg.qr(np.vstack([R, Phi]), mode="r")
+            R = cast(NDArray[np.float64], np.linalg.qr(np.vstack([R, Phi]), mode="r"))  # R alone
     Rr = R[:ncols, :ncols]
     rhs = R[:ncols, -1]
     sc = np.sqrt((Rr**2).sum(axis=0)) + 1e-300
@@ -1038,7 +1043,7 @@ def n4sid_decompose(
         d = np.concatenate([np.diff(v / sy, axis=0) for v in ys])
         noise = np.maximum(0.5 * np.var(d, axis=0), 1e-16)
     data = []
-    fine = [] if r > 1 else None
+    fine: list[tuple[NDArray[np.float64], NDArray[np.float64]]] | None = [] if r > 1 else None
     acc = HankelAccumulator(m, p, i, chunk=chunk)
     rows = acc.rows
     for ue, ye in zip(us, ys, strict=True):

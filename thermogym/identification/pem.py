@@ -49,7 +49,7 @@ import itertools
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -156,10 +156,10 @@ def arx_ls(
         raise IdentificationError(
             f"ARX with {Phi.shape[1]} parameters needs more than {Phi.shape[0]} usable samples"
         )
-    th, *_ = np.linalg.lstsq(Phi, t, rcond=None)
-    res = t - Phi @ th
+    th = cast(NDArray[np.float64], np.linalg.lstsq(Phi, t, rcond=None)[0])  # (numpy's stubs:
+    res = t - Phi @ th  # floating[Any] for float64 in and out)
     s2 = float(res @ res / max(Phi.shape[0] - Phi.shape[1], 1))
-    cov = s2 * np.linalg.pinv(Phi.T @ Phi)
+    cov = cast(NDArray[np.float64], s2 * np.linalg.pinv(Phi.T @ Phi))
     return th, cov, s2
 
 
@@ -1300,10 +1300,13 @@ def refine(
         status = "kept the N4SID model (refinement did not improve it stably)"
     else:
         status = sol.status
+    mats = model.matrices(th[None])
     final = StateSpaceModel.from_matrices(
-        *(a[0] for a in model.matrices(th[None])[:3]),
-        model.matrices(th[None]).D[0] if base.has_D else None,
-        model.matrices(th[None]).K[0] if keep_k else None,
+        mats.A[0],
+        mats.B[0],
+        mats.C[0],
+        mats.D[0] if base.has_D else None,
+        mats.K[0] if keep_k else None,
         dt=base.dt,
         inputs=list(ins),
         outputs=list(outs),

@@ -379,7 +379,7 @@ def resample(
             f"resampling grid is empty: it would start at {a!r} s but the data end at {b!r} s"
         )
     n = math.floor((b - a) / dt + 1e-9) + 1
-    grid = a + dt * np.arange(n)
+    grid = a + dt * np.arange(n, dtype=np.float64)
     data: dict[str, NDArray[np.float64]] = {}
     info: dict[str, Any] = {}
     for c in cols:

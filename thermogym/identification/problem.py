@@ -585,7 +585,9 @@ class Problem:
 
     def _setup_data(self) -> None:
         outs = list(self.model.output_names)
-        self._out_cols = np.array([outs.index(p.simulated) for p in self.pairs], dtype=np.int64)
+        self._out_cols = np.array(
+            [outs.index(p.simulated or p.measured) for p in self.pairs], dtype=np.int64
+        )
         self._y: list[NDArray[np.float64]] = []
         self._m: list[NDArray[np.bool_]] = []
         for e in self.experiments:

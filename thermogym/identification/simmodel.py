@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, cast, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -162,7 +162,8 @@ class ThermogymModel:
             msg = f"{type(e).__name__}: {e}"
             nan = np.full((full.shape[0], experiment.n_samples, len(self.output_names)), np.nan)
             return SimBatch(nan, [msg] * full.shape[0])
-        bad = ~np.isfinite(out).all(axis=(1, 2))
+        # one flag per parameter set (out is (B, T, p): an array, not a scalar)
+        bad = cast(NDArray[np.bool_], ~np.isfinite(out).all(axis=(1, 2)))
         errors: list[str | None] = ["non-finite output" if b else None for b in bad]
         return SimBatch(out, errors)
 

@@ -191,7 +191,7 @@ def ssest(
         else [integer("input_delay", input_delay, lo=0, error=ConfigError)]
     )
     cand_orders = [int(order)] if order is not None else list(orders)
-    table = []
+    table: list[dict[str, Any]] = []
     for d in delays:
         # folds of deviation data: each part about its whole recording's operating point
         # (a part cut from a TCLab run does not start at rest), the folds of pem()
@@ -375,7 +375,10 @@ def identify_auto(
     blocks = _complement_folds(prob, max(3, int(folds)))
     scores: dict[str, Any] = {}
     results: dict[str, PEMResult] = {}
-    common = {"disturbances": disturbances, "operating_point_mode": operating_point_mode}
+    common: dict[str, Any] = {
+        "disturbances": disturbances,
+        "operating_point_mode": operating_point_mode,
+    }
     for fam in families:
         try:
             if fam in ("arx", "armax", "oe", "bj"):
@@ -571,9 +574,12 @@ def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
             )
             th = sol.theta
             if np.all(np.abs(m.eigenvalues(th[None])[0]) < 1.0):
+                mats = m.matrices(th[None])
                 m = StateSpaceModel.from_matrices(
-                    *(a[0] for a in m.matrices(th[None])[:3]),
-                    m.matrices(th[None]).D[0] if st["feedthrough"] else None,
+                    mats.A[0],
+                    mats.B[0],
+                    mats.C[0],
+                    mats.D[0] if st["feedthrough"] else None,
                     dt=prob.dt,
                     inputs=prob.inputs,
                     outputs=prob.outputs,

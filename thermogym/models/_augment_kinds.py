@@ -353,6 +353,8 @@ class _Disturbance(_Aug):
 class _CourseMixin:
     """A piecewise course over time: ``segments`` intervals of ``span`` seconds."""
 
+    effect: str  # the effect's name, set by the class this is mixed into
+
     def _setup_course(self, spec, smooth_default: bool) -> None:
         self.span = _number(spec, "span", 86400.0, self.effect)
         self.segments = int(spec.get("segments", 6))
@@ -1076,8 +1078,8 @@ class _StaticRise(_Aug):
     """Legacy static (Wiener) corrections of the rise ``Δ = y − r``: exact at steady state."""
 
     side = "plant"
-    state_suffixes = ("ref",)
-    x0_free = (False,)
+    state_suffixes: tuple[str, ...] = ("ref",)
+    x0_free: tuple[bool, ...] = (False,)
 
     def __init__(self, spec, base):
         super().__init__(spec, base)

@@ -30,6 +30,9 @@ NaN (never a silent finite value).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import cast
+
 import numba as nb
 from llvmlite import ir
 from numba import types
@@ -39,8 +42,7 @@ from numba.extending import intrinsic
 __all__ = ["vexp", "vlog", "vmax", "vmin", "vpow"]
 
 
-@intrinsic
-def _bits(typingctx, x):  # type: ignore[no-untyped-def]
+def _bits_typing(typingctx, x):  # type: ignore[no-untyped-def]
     # the IEEE bit pattern of a float64 as int64 (an LLVM bitcast: vectorises)
     if x != types.float64:
         return None
@@ -51,8 +53,12 @@ def _bits(typingctx, x):  # type: ignore[no-untyped-def]
     return types.int64(types.float64), codegen
 
 
-@intrinsic
-def _float(typingctx, i):  # type: ignore[no-untyped-def]
+# numba's stubs type an intrinsic's call with its typing function's signature; inside
+# compiled code it is called with the values alone
+_bits = cast(Callable[[float], int], intrinsic(_bits_typing))
+
+
+def _float_typing(typingctx, i):  # type: ignore[no-untyped-def]
     # the float64 with bit pattern i (int64)
     if i != types.int64:
         return None
@@ -63,8 +69,10 @@ def _float(typingctx, i):  # type: ignore[no-untyped-def]
     return types.float64(types.int64), codegen
 
 
-@intrinsic
-def _fma(typingctx, a, b, c):  # type: ignore[no-untyped-def]
+_float = cast(Callable[[int], float], intrinsic(_float_typing))
+
+
+def _fma_typing(typingctx, a, b, c):  # type: ignore[no-untyped-def]
     # a·b + c rounded once (IEEE fused multiply-add: the same result scalar and vectorised)
     if not (a == b == c == types.float64):
         return None
@@ -76,6 +84,9 @@ def _fma(typingctx, a, b, c):  # type: ignore[no-untyped-def]
         return builder.call(fn, args)
 
     return types.float64(types.float64, types.float64, types.float64), codegen
+
+
+_fma = cast(Callable[[float, float, float], float], intrinsic(_fma_typing))
 
 
 _LN2_HI = 6.93147180369123816490e-01  # ln 2 with 21 trailing zero bits: k ln2_hi is exact

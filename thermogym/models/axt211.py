@@ -237,7 +237,7 @@ def ptc_resistance(
     >>> from thermogym.models.axt211 import AXT211, ptc_resistance
     >>> m = AXT211()
     >>> round(float(ptc_resistance(30.0, m.nominal[:6])), 1)
-    90.5
+    83.3
     """
     p = _NOMINAL.copy()
     p[dyn.I_R0 : dyn.I_R0 + 6] = np.asarray(coeffs, dtype=float)

@@ -623,7 +623,7 @@ class Model(ABC):
         T = ua.shape[1]
         units = {s.name: s.unit for s in self._signals}
         return Simulation(
-            time=t0 + dt * np.arange(T),
+            time=t0 + dt * np.arange(T, dtype=np.float64),
             outputs=y,
             output_names=self.output_names,
             units=units,

@@ -275,7 +275,7 @@ class ExtraNodeNetwork(Model):
         ``{"C": [lo, hi], "G": [...], "g": [...]}``.
     """
 
-    def __init__(self, plant: ThermalNetworkModel, node: str, bounds: Any = None) -> None:
+    def __init__(self, plant: Model, node: str, bounds: Any = None) -> None:
         if not isinstance(plant, ThermalNetworkModel):
             raise ConfigError(f"an extra node needs a thermal network, not {plant.name!r}")
         if plant.effects:

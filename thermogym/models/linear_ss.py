@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -218,7 +218,7 @@ class StateSpaceModel(_LinearModel):
         if x0 is not None and not fit_x0:
             raise ConfigError("x0 is given but fit_x0=False; pass x0 to simulate() instead")
         x0m = np.zeros(n) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
-        if x0m.shape != (n,):
+        if x0 is not None and x0m.shape != (n,):
             raise ShapeError(f"x0 has shape {np.shape(x0)}, expected ({n},) (n_states)")
 
         uo = {s: full_units[s] for s in exo + outs}
@@ -463,7 +463,9 @@ class StateSpaceModel(_LinearModel):
             grab("K", (n, p)),
         )
 
-    def eigenvalues(self, theta: ThetaLike = None) -> NDArray[np.complex128]:
+    def eigenvalues(
+        self, theta: ThetaLike = None
+    ) -> NDArray[np.floating[Any]] | NDArray[np.complexfloating[Any, Any]]:
         """Eigenvalues of ``A`` (discrete poles), shape (B, n).
 
         Examples
@@ -510,7 +512,8 @@ class StateSpaceModel(_LinearModel):
         eye = np.eye(self.n_states)
         try:
             # x = A x + B u  ⇒  x = (I − A)^{-1} B u
-            return np.linalg.solve(eye[None] - A, Bu)
+            # float64 in, float64 out (numpy's stubs say floating[Any])
+            return cast(NDArray[np.float64], np.linalg.solve(eye[None] - A, Bu))
         except np.linalg.LinAlgError as e:
             raise SimulationError(
                 "I − A is singular (A has an eigenvalue at 1, an integrating mode); the "
@@ -809,7 +812,8 @@ class StateSpaceModel(_LinearModel):
         out = np.empty((Bt, T, self.n_outputs))
         du = _compact(self._deviation(ua))
         dy = _compact(ya - self.y_op) if np.any(self.y_op != 0) else ya
-        _ss_predict_kernel(*(_transposed(a) for a in (*mats, Ah, AhB)), du, dy, xi, h, out)
+        a_t, b_t, c_t, d_t, k_t, ah_t, ahb_t = (_transposed(a) for a in (*mats, Ah, AhB))
+        _ss_predict_kernel(a_t, b_t, c_t, d_t, k_t, ah_t, ahb_t, du, dy, xi, h, out)
         if np.any(self.y_op != 0):
             out += self.y_op
         return out
@@ -889,7 +893,8 @@ class StateSpaceModel(_LinearModel):
                 rb = r[b if r.shape[0] > 1 else 0, k0 : k0 + L].reshape(-1)
                 ok = np.isfinite(rb)
                 aug = np.vstack([R, np.column_stack([O[ok], rb[ok]])])
-                R = np.linalg.qr(aug, mode="r")
+                # numpy's stubs type every mode as QRResult; mode="r" returns R alone
+                R = cast(NDArray[np.float64], np.linalg.qr(aug, mode="r"))
                 scale = max(scale, float(np.abs(R[:, :n]).max(initial=0.0)))
                 if not np.isfinite(M).all():
                     raise SimulationError(

@@ -513,7 +513,7 @@ class AXT211Plant(TruePlant):
         for k in range(T):
             for name, v in self.hidden(xs[:, k], specimens).items():
                 hid[name][:, k] = v
-        return PlantRun(t0 + dt * np.arange(T), u, y, xs, hid, self.output_names)
+        return PlantRun(t0 + dt * np.arange(T, dtype=np.float64), u, y, xs, hid, self.output_names)
 
     # ---- derived physical quantities (for comparisons with identified models)
     def derived(self, specimens: Specimens) -> dict[str, NDArray[np.float64]]:
@@ -683,7 +683,7 @@ class AXT211Rig(Rig):
         plant = self.plant()
         spec = specimens if specimens is not None else self._batch(u.shape[0])
         run = plant.simulate(u, dt, spec)
-        t = dt * np.arange(u.shape[1])
+        t = dt * np.arange(u.shape[1], dtype=np.float64)
         out = []
         for b, (eid, meta) in enumerate(zip(ids, metas, strict=True)):
             truth = {n: run.outputs[b, :, i] for i, n in enumerate(plant.output_names)}
@@ -820,7 +820,7 @@ def _staircase(
         xs[k] = x[0]
         x = plant.step(x, seen[:, k], dt, spec)
         T_meas = float(stream.sample(np.array([True]), x[:, 1], dt, _draws(rng))[0])
-    t = dt * np.arange(n)
+    t = dt * np.arange(n, dtype=np.float64)
     truth = {name: ys[:, i] for i, name in enumerate(plant.output_names)}
     truth.update(plant.hidden(xs, spec.take(np.zeros(n, dtype=np.int64))))
     truth.update({"k_U": kU, "T_U": TU})

@@ -519,7 +519,7 @@ class TruePlant(ABC):
                 hid[name][:, k] = v
             if k + 1 < T:
                 x = self.step(x, u[:, k], dt, specimens)
-        return PlantRun(t0 + dt * np.arange(T), u, ys, xs, hid, self.output_names)
+        return PlantRun(t0 + dt * np.arange(T, dtype=np.float64), u, ys, xs, hid, self.output_names)
 
     def _batch_inputs(self, u: ArrayLike, n: int) -> NDArray[np.float64]:
         ua = np.asarray(u, dtype=float)

@@ -449,7 +449,7 @@ def _thermostat(
     plant = rig.plant()
     spec = rig.specimen
     T_out, sol = _weather(rng, n, dt)
-    t = dt * np.arange(n)
+    t = dt * np.arange(n, dtype=np.float64)
     hour = (t / 3600.0) % 24.0
     occ = ((t // 86400.0) % 7 < 5) & (hour >= 7.0) & (hour < 18.0)
     Q_occ = np.where(occ, 250.0, 40.0)

@@ -735,9 +735,9 @@ class StrutPlant(TruePlant):
         f_hi = _g_annulus_np(_N_HI, ph["forced_convection"]) / _G_ANN_STILL
         tot = np.zeros((B, nn))
         for e, (a, b) in enumerate(zip(ei.tolist(), ej.tolist(), strict=True)):
-            g = eg[:, e] * (f_hi if eann[e] else 1.0)
-            tot[:, a] += g
-            tot[:, b] += g
+            g_e = eg[:, e] * (f_hi if eann[e] else 1.0)
+            tot[:, a] += g_e
+            tot[:, b] += g_e
         g_air_hi = A * 30.0
         g_air_hi[:, S0:T0] = A[:, S0:T0] * _G_ANN_STILL * f_hi
         rho = np.max((tot + g_air_hi) / C, axis=1)

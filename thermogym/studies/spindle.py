@@ -294,7 +294,7 @@ def validation_prediction(
     order: int = 8,
     train_speed: int = 6000,
     input_set: str | Sequence[str] = "speed",
-) -> tuple[FitResult, dict[str, Any]]:
+) -> tuple[FitResult, dict[int, Any]]:
     """Section 3.2: ``M¹_{6000,8}`` predicting the validation days.
 
     Returns

@@ -399,7 +399,7 @@ def _sensor_lag(ctx: Context) -> list[Candidate]:
 
 
 def _transport_delay(ctx: Context) -> list[Candidate]:
-    out = []
+    out: list[Candidate] = []
     fo = _fo(ctx)
     hi = 0.25 * ctx.duration
     if any(p.startswith("tau_") for p in ctx.model.param_names) and ctx.spec.name == "foptd":
@@ -687,7 +687,7 @@ def _input_dependent(ctx: Context) -> list[Candidate]:
     level = max((f.get("level", 0.0) for f in fo.values()), default=0.0)
     targets = _targets(ctx, temperature=True)[:1]
     for o in targets:
-        refs = [*ctx.temperature_inputs] or [None]
+        refs: list[str | None] = [*ctx.temperature_inputs] or [None]
         for src in _manipulated(ctx):
             for ref in refs:
                 spec = _loop_spec(

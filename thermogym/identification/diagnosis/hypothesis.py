@@ -10,7 +10,7 @@ model it extends. :class:`NominalSpec` builds the model of a combination.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -283,6 +283,7 @@ def merge_values(
 ) -> NDArray[np.float64]:
     """``other``'s nominal vector with the values ``model`` shares with it by name."""
     out = other.nominal.copy()
+    items: Iterable[tuple[str, Any]]
     if isinstance(theta, Mapping):
         items = theta.items()
     else:

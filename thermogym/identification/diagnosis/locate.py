@@ -230,7 +230,7 @@ def eta_squared(
     lv = np.concatenate([np.asarray(x) for x in labels])
     ok = np.isfinite(ev) & (lv >= 0)
     ev, lv = ev[ok], lv[ok]
-    stats = []
+    stats: list[dict[str, float]] = []
     if ev.size < 3:
         return 0.0, stats
     mean = float(ev.mean())
@@ -314,7 +314,7 @@ def locate(
         w = np.array([1.0 / (scale[o] or 1.0) for o in outputs])
         sse += np.where(ok, (e * w) ** 2, 0.0).sum(axis=0)
     share = sse / sse.sum() if sse.sum() > 0 else np.zeros(n_y)
-    signals = []
+    signals: list[dict[str, Any]] = []
     for j, o in enumerate(outputs):
         rms = math.sqrt(sq[j] / max(cnt[j], 1))
         sig = sigma.get(o, math.nan)
@@ -358,7 +358,7 @@ def locate(
                 )
     windows.sort(key=lambda d: -d["weighted_sse"])
 
-    reg_out = []
+    reg_out: list[dict[str, Any]] = []
     for reg in regimes:
         for j, o in enumerate(outputs):
             if reg.signal and reg.kind in (
@@ -370,7 +370,7 @@ def locate(
                     continue
             es = [np.asarray(r["residual"], dtype=float)[:, j] for r in recordings]
             eta, stats = eta_squared(es, reg.labels, len(reg.bins))
-            bins = [
+            bins: list[dict[str, Any]] = [
                 {"bin": name, **st} for name, st in zip(reg.bins, stats, strict=True) if st["n"] > 0
             ]
             if len(bins) < 2:

@@ -309,7 +309,7 @@ class DiagnosisReport:
                 if d0 is None:
                     continue
 
-                def ind(d: dict[str, Any] | None) -> str:
+                def ind(d: dict[str, Any] | None) -> str | float:
                     if not d:
                         return "–"
                     return min((v["p_value"] for v in d["independence"].values()), default=math.nan)

@@ -223,12 +223,29 @@ def diagnose(
 
     Examples
     --------
-    >>> from thermogym.rigs import run_experiment
-    >>> recs = run_experiment("strut", "steps", seed=0,
-    ...                       effects=["sensor_offset:signal=T_nut,offset=1.0"])
-    >>> rep = diagnose("strut", recs[:1], recs[1:])
-    >>> rep.named_effects[0], rep.best["target"]
+    The strut model's own step tests (train at 20 m/min, validate at 25 and 30), the
+    nut's thermocouple reading 1 K high (the virtual rig is a richer plant than the
+    model: its recordings show more than this one effect):
+
+    >>> import numpy as np
+    >>> from thermogym.models.registry import get_model
+    >>> from thermogym.recording import Recording
+    >>> m = get_model("strut")
+    >>> rng = np.random.default_rng(0)
+    >>> def steps(v, n=49, dt=150.0):
+    ...     u = np.column_stack([np.full(n, v), np.full(n, 21.0)])
+    ...     u[0, 0] = 0.0
+    ...     y = m.simulate(u, dt, {"T_ref": 21.0}).outputs[0]
+    ...     cols = {"feed_rate": u[:, 0], "T_air": u[:, 1]}
+    ...     cols |= {k: y[:, j] + rng.normal(0, 0.05, n) for j, k in enumerate(m.output_names)}
+    ...     cols["T_nut"] = cols["T_nut"] + 1.0  # the nut's sensor reads 1 K high
+    ...     return Recording(dt * np.arange(n), cols)
+    >>> rep = diagnose("strut", [steps(20.0)], [steps(25.0), steps(30.0)],
+    ...                candidates=["sensor_offset", "sensor_lag"])
+    >>> rep.best["effect"], rep.best["target"]
     ('sensor_offset', 'T_nut')
+    >>> round(rep.best["params"]["offset_T_nut"]["value"], 1)
+    1.0
     """
     del min_explained
     say = progress or (lambda s: None)

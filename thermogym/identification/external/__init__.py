@@ -35,22 +35,46 @@ batch cost.
 
 Example
 -------
-A TOML file ``lag.toml`` next to the script ``lag_model.py``::
+A script ``lag_model.py`` (a heater's temperature rise under a constant power) and its
+configuration ``lag.toml`` next to it, written to a temporary folder here:
 
-    type = "script"
-    path = "lag_model.py"
-    timeout = 20
-    [parameters]
-    K = {start = 1.0, lower = 0.1, upper = 10.0}
-    tau = {start = 100.0, lower = 10.0, upper = 1000.0}
-    [inputs]
-    P = "P_heater"
-    [outputs]
-    y = "T_rise"
-
->>> from thermogym.identification.external import load_external  # doctest: +SKIP
->>> with load_external("lag.toml") as model:                     # doctest: +SKIP
-...     batch = model.simulate(theta, recording)                  # (B, T, 1) and errors
+>>> import tempfile
+>>> from pathlib import Path
+>>> import numpy as np
+>>> from thermogym.identification.external import load_external
+>>> from thermogym.recording import Recording
+>>> folder = Path(tempfile.mkdtemp())
+>>> _ = (folder / "lag_model.py").write_text('''
+... import numpy as np
+... K = 1.0  # the adapter sets K, tau, time (the recording's) and P
+... tau = 100.0
+... time = np.arange(0.0, 600.0, 10.0)
+... P = np.ones_like(time)
+... y = K * P * (1.0 - np.exp(-time / tau))
+... ''')
+>>> _ = (folder / "lag.toml").write_text('''
+... type = "script"
+... path = "lag_model.py"
+... timeout = 20
+... [parameters]
+... K = {start = 1.0, lower = 0.1, upper = 10.0}
+... tau = {start = 100.0, lower = 10.0, upper = 1000.0}
+... [inputs]
+... P = "P_heater"
+... [outputs]
+... y = "T_rise"
+... [evaluation]
+... backend = "serial"
+... ''')
+>>> rec = Recording(np.arange(0.0, 300.0, 60.0), {"P_heater": np.ones(5)})
+>>> with load_external(folder / "lag.toml") as model:
+...     batch = model.simulate(np.array([[2.0, 100.0], [1.0, 50.0]]), rec)
+>>> batch.outputs.shape, batch.errors                # (B, T, outputs) and errors per set
+((2, 5, 1), [None, None])
+>>> batch.outputs[0, :, 0].round(3).tolist()         # 2 (1 - exp(-t / 100 s))
+[0.0, 0.902, 1.398, 1.669, 1.819]
+>>> import shutil
+>>> shutil.rmtree(folder)
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ import argparse
 import json
 import sys
 
-from thermogym.errors import ThermogymError
+from thermogym.errors import ConfigError, ThermogymError
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -45,6 +45,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # after argument parsing: --help answers without pandas
     from thermogym.identification.external import load_external, time_evaluations
+    from thermogym.identification.external.base import ExternalModel
     from thermogym.identification.metrics import fit_report
     from thermogym.recording import read_recording, write_recording
 
@@ -58,7 +59,14 @@ def main(argv: list[str] | None = None) -> int:
             if not sep:
                 raise ThermogymError(f"--set {item!r}: expected NAME=VALUE")
             values[name.strip()] = float(val)
-        model = load_external(args.config, **overrides)
+        loaded = load_external(args.config, **overrides)
+        if not isinstance(loaded, ExternalModel):  # a co-simulation has no predict()
+            loaded.close()
+            raise ConfigError(
+                f"{args.config}: a co-simulation is checked model by model; give the "
+                "configuration of one of its models"
+            )
+        model = loaded
         rec = read_recording(args.recording)
     except (ThermogymError, ValueError, OSError) as e:
         print(f"error: {e}", file=sys.stderr)

@@ -198,7 +198,7 @@ def soft_timeout(seconds: float | None, label: str = "evaluation") -> Iterator[N
         and hasattr(signal, "setitimer")
         and _in_main_thread()
     )
-    if not usable:
+    if not usable or seconds is None:  # (usable implies a number of seconds)
         yield
         return
 

@@ -127,7 +127,7 @@ class _CallableEvaluator(Evaluator):
         code = getattr(self._live_fn, "__code__", None)
         filename = self._file or (code.co_filename if code is not None else None)
         line = traceback_line(exc, filename) if filename else None
-        return f"{msg} ({os.path.basename(filename)} line {line})" if line else msg
+        return f"{msg} ({os.path.basename(filename)} line {line})" if line and filename else msg
 
 
 class CallableModel(ExternalModel):

@@ -712,7 +712,7 @@ def _check_options(mtype: str, o: dict[str, Any], base: Path, source: str) -> di
         models = o["models"]
         if not isinstance(models, Mapping) or len(models) < 1:
             raise _err(source, "models", "expected a table prefix -> model table or model file")
-        checked = {}
+        checked: dict[str, Path | dict[str, Any]] = {}
         for prefix, sub in models.items():
             _identifier(prefix, f"models.{prefix}", source, "model prefix")
             if isinstance(sub, str | os.PathLike):

@@ -142,19 +142,19 @@ class CoSimModel:
         self.param_names: tuple[str, ...] = ()
         self._slices: dict[str, slice] = {}
         nominal, lower, upper = [], [], []
-        for p, m in self.models.items():
+        for p, model in self.models.items():
             start = len(self.param_names)
-            self.param_names += tuple(f"{p}.{n}" for n in m.param_names)
+            self.param_names += tuple(f"{p}.{n}" for n in model.param_names)
             self._slices[p] = slice(start, len(self.param_names))
-            nominal.append(np.asarray(m.nominal, dtype=float))
-            lower.append(np.asarray(m.lower, dtype=float))
-            upper.append(np.asarray(m.upper, dtype=float))
+            nominal.append(np.asarray(model.nominal, dtype=float))
+            lower.append(np.asarray(model.lower, dtype=float))
+            upper.append(np.asarray(model.upper, dtype=float))
         self.nominal = np.concatenate(nominal)
         self.lower = np.concatenate(lower)
         self.upper = np.concatenate(upper)
         outs: list[str] = []
-        for p, m in self.models.items():
-            for o in m.output_names:
+        for p, model in self.models.items():
+            for o in model.output_names:
                 if o in outs:
                     raise ConfigError(
                         f"output {o!r} of model {p!r} is also an output of another model; "
@@ -163,8 +163,8 @@ class CoSimModel:
                 outs.append(o)
         self.output_names = tuple(outs)
         ins: list[str] = []
-        for p, m in self.models.items():
-            for i in m.input_names:
+        for p, model in self.models.items():
+            for i in model.input_names:
                 if i not in self.feeds[p] and i not in ins:
                     ins.append(i)
         self.input_names = tuple(ins)

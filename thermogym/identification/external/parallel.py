@@ -544,12 +544,13 @@ class ProcessExecutor(_PoolExecutor):
             pass  # the worker died; _poll reports it
 
     def _poll(self, slots: list[_Slot], timeout: float | None) -> list[tuple[_Slot, str, Any]]:
-        by_conn = {s.handle.conn: s for s in slots}
+        by_conn: dict[Any, _Slot] = {s.handle.conn: s for s in slots}
         # wake up now and then to notice a dead worker whose socket stays open
         ready = _mp_wait(list(by_conn), 5.0 if timeout is None else min(timeout, 5.0))
         events = []
-        for c in ready:
-            s = by_conn[c]
+        for ready_conn in ready:
+            s = by_conn[ready_conn]  # wait() hands back the connections it was given
+            c = s.handle.conn
             try:
                 while c.poll():
                     msg = c.recv()
@@ -637,7 +638,7 @@ class RayExecutor(_PoolExecutor):
             raise ConfigError("backend 'ray' needs Ray (pip install 'thermogym[ray]')") from e
         self._ray = ray
         if not ray.is_initialized():
-            opts = {"include_dashboard": False, "log_to_driver": False}
+            opts: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
             opts.update(ray_options or {})
             ray.init(**opts)
         if kwargs.get("workers") is None:
@@ -648,7 +649,8 @@ class RayExecutor(_PoolExecutor):
 
     def _start(self, n: int) -> list[Any]:
         ray = self._ray
-        actors = [self._actor_cls.remote(self._payload) for _ in range(n)]
+        # ray actor handles: their methods gain .remote (not in ray's stubs)
+        actors: list[Any] = [self._actor_cls.remote(self._payload) for _ in range(n)]
         try:
             answers = ray.get([a.ready.remote() for a in actors], timeout=STARTUP_TIMEOUT)
         except Exception as e:

@@ -164,7 +164,7 @@ def rewrite_script(
         raise ConfigError(f"script {filename!r} line {e.lineno}: {e.msg}") from e
     seen: set[str] = set()
     defaults: dict[str, int] = {}
-    body = []
+    body: list[ast.stmt] = []
     for stmt in tree.body:
         name = _simple_target(stmt)
         if name is not None and name in injected and name not in seen:
@@ -314,6 +314,8 @@ class ScriptModel(ExternalModel):
     ...     m.simulate(np.array([[2.0]]), rec).outputs[0, :, 0]
     array([2., 4., 6.])
     """
+
+    evaluator: _ScriptEvaluator
 
     kind = "script"
 

@@ -255,12 +255,12 @@ class Tracker:
             self._samples_cost.append(np.where(ok, cost, np.inf))
             self._samples_pair.append(ev.pair_rmse.copy())
         if ok.any():
-            i = int(np.argmin(np.where(ok, cost, np.inf)))
-            self._iter_best = min(self._iter_best, float(cost[i]))
-            if cost[i] < self.best_cost:
-                self.best_cost = float(cost[i])
-                self.best_objective = float(obj[i])
-                self.best_z = Z[i].copy()
+            best = int(np.argmin(np.where(ok, cost, np.inf)))
+            self._iter_best = min(self._iter_best, float(cost[best]))
+            if cost[best] < self.best_cost:
+                self.best_cost = float(cost[best])
+                self.best_objective = float(obj[best])
+                self.best_z = Z[best].copy()
         if self.n_ok == 0 and self.n_evaluated >= self.fail_after:
             top = "; ".join(f"{m} ({n}x)" for m, n in self.failure_messages.most_common(3))
             raise IdentificationError(
