@@ -32,9 +32,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from benchmarks.diagnosis.effects import Hidden, phase_angle_power
-from benchmarks.diagnosis.plants import FAMILIES, Family, Profiles, TankPlant
-from benchmarks.diagnosis.signals import (
+from thermogym.recording import Recording
+
+from .effects import Hidden, phase_angle_power
+from .plants import FAMILIES, Family, Profiles, TankPlant
+from .signals import (
     effect_share,
     periodic,
     ramp_profile,
@@ -43,7 +45,6 @@ from benchmarks.diagnosis.signals import (
     smooth_random,
     step_profile,
 )
-from thermogym.recording import Recording
 
 __all__ = ["CASES", "Built", "Case", "build", "select"]
 
@@ -460,7 +461,7 @@ def _to_recording(
 
 def _model_for(case: Case) -> tuple[Any, dict[str, Any]]:
     """The nominal model a user would pass, and the diagnose options it needs."""
-    from benchmarks.diagnosis.nominal import nominal_model
+    from .nominal import nominal_model
 
     family = FAMILIES[case.family]
     if case.model == "user":
@@ -475,7 +476,7 @@ def _model_for(case: Case) -> tuple[Any, dict[str, Any]]:
 def build(case: Case) -> Built:
     """Make a case's recordings, nominal model, diagnose options and ground truth."""
     if case.family in RIG_FAMILIES:
-        from benchmarks.diagnosis.rigcases import rig_recordings
+        from .rigcases import rig_recordings
 
         train, val, options, facts = rig_recordings(
             case.family, case.hidden, case.seed, control=case.kind == "control"

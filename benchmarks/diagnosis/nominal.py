@@ -19,8 +19,9 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 from scipy.signal import lfilter
 
-from benchmarks.diagnosis.plants import BuildingPlant, Family, PlatePlant, TankPlant
 from thermogym.models.base import Model, Parameter, Signal
+
+from .plants import BuildingPlant, Family, PlatePlant, TankPlant
 
 __all__ = ["NOMINAL_MODELS", "BuildingModel", "PlateModel", "TankModel", "nominal_model"]
 

@@ -33,7 +33,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from benchmarks.diagnosis.effects import (
+from .effects import (
     Hidden,
     apply_input_map,
     latent_capacity,
@@ -41,7 +41,7 @@ from benchmarks.diagnosis.effects import (
     radiation,
     radiation_conductance,
 )
-from benchmarks.diagnosis.signals import SensorNoise
+from .signals import SensorNoise
 
 __all__ = [
     "FAMILIES",
@@ -481,7 +481,7 @@ class TankPlant(Family):
         Profiles: ``tv`` (coil factor change), ``dist`` (heat), ``draw`` (0/1
         draw-off), ``supply`` (relative voltage), ``drift_t`` [h].
         """
-        from benchmarks.diagnosis.effects import backlash
+        from .effects import backlash
 
         heat, valve = np.atleast_2d(u["heater"]), np.atleast_2d(u["valve"])
         T_cw, T_amb = np.atleast_2d(u["T_cw"]), np.atleast_2d(u["T_amb"])

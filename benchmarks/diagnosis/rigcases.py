@@ -24,11 +24,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from benchmarks.diagnosis.effects import Hidden, clock_skew, first_order_lag
-from benchmarks.diagnosis.signals import effect_share, periodic
 from thermogym.recording import Recording
 from thermogym.rigs import get_rig, to_recording
 from thermogym.rigs.base import RigRun
+
+from .effects import Hidden, clock_skew, first_order_lag
+from .signals import effect_share, periodic
 
 __all__ = ["RIGS", "RigSetup", "rig_recordings"]
 
