@@ -162,9 +162,18 @@ def _strut(ctx: DemoContext, res: StageResult) -> None:
             "thermogym/StrutThermal-v0", params=ctx.products["fit_strut_ratios"], **kw
         ),
     }
-    if "fit_strut_augmented" in ctx.products:
-        envs["augmented (stage 3)"] = gym.make(
-            "thermogym/StrutThermal-v0", params=ctx.products["fit_strut_augmented"], **kw
+    aug = ctx.products.get("fit_strut_augmented")
+    if aug is not None and aug.model == "strut":
+        envs["augmented (stage 3)"] = gym.make("thermogym/StrutThermal-v0", params=aug, **kw)
+    elif aug is not None:
+        # the diagnosis' augmentations act on signals of a wrapped model (thermogym.models.
+        # augmented); the env's compiled kernels run the strut's own equations only
+        effects = [str(a.get("effect")) for a in aug.model_config.get("augmentations", [])]
+        res.highlights["strut augmented env"] = (
+            f"left out: the stage-3 augmented model ({aug.model} over the strut: "
+            f"{', '.join(effects)}) adds signal-level augmentations that StrutThermal-v0's "
+            "compiled kernels do not run (simulate it with `thermogym simulate` or "
+            "`FitResult.build_model()`)"
         )
     envs["virtual rig (concealed effect)"] = gym.make(
         "thermogym/StrutThermal-v0", plant="rig", rig_effects=[CONCEALED], **kw
