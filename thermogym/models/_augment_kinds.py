@@ -242,6 +242,10 @@ class _Delay(_Aug):
     effect = "transport_delay"
     form = "input dead time"
 
+    #: name of the dead-time parameter (before the signal's name) and what it describes
+    prefix = "delay_"
+    described = "dead time of {} before it acts on the plant"
+
     def __init__(self, spec, base):
         super().__init__(spec, base)
         lo, hi = _bounds(spec, "delay", (0.0, 3600.0))
@@ -250,12 +254,12 @@ class _Delay(_Aug):
             raise ConfigError(f"transport_delay history is {self.history}; expected >= 0")
         self.params = [
             _param(
-                f"delay_{self.signal}",
+                f"{self.prefix}{self.signal}",
                 0.0,
                 max(0.0, lo),
                 hi,
                 "s",
-                f"dead time of {self.signal} before it acts on the plant",
+                self.described.format(self.signal),
             )
         ]
         self.state_suffixes = tuple(f"lag{h + 1}" for h in range(self.history))
@@ -1386,24 +1390,8 @@ class _OutputDelay(_Delay):
     form = "output dead time"
     side = "sensor"
 
-    def __init__(self, spec, base):
-        _Aug.__init__(self, spec, base)
-        lo, hi = _bounds(spec, "delay", (0.0, 3600.0))
-        self.history = int(spec.get("history", 0))
-        if self.history < 0:
-            raise ConfigError(f"transport_delay history is {self.history}; expected >= 0")
-        self.params = [
-            _param(
-                f"delay_out_{self.signal}",
-                0.0,
-                max(0.0, lo),
-                hi,
-                "s",
-                f"dead time before the {self.signal} sensor sees its signal",
-            )
-        ]
-        self.state_suffixes = tuple(f"lag{h + 1}" for h in range(self.history))
-        self.x0_free = (False,) * self.history
+    prefix = "delay_out_"
+    described = "dead time before the {} sensor sees its signal"
 
     def init(self, p, u0, y0):
         return np.repeat(y0[:, self.col : self.col + 1], self.history, axis=1)
