@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import pytest
 from _diag_plants import NodeModel, node_recordings
@@ -118,3 +119,19 @@ def test_a_parameter_the_training_data_cannot_identify_is_reported_as_such():
     m = rep.best["params"]["m_fc_T"]
     assert not m["identifiable"]
     assert "not identifiable from these data" in m["note"] and "second level of u" in m["note"]
+
+
+def test_a_search_the_time_limit_cut_short_says_so_and_what_it_left_out():
+    which = ["transport_delay", "sensor_lag"]
+    whole = _run({"delay": 60.0}, seed=4, max_effects=1, candidates=which)
+    assert whole.complete and whole.incomplete == []
+    assert not whole.verdict.startswith("Incomplete")
+    # a limit that has passed before the first candidate: nothing screened, and said
+    cut = _run({"delay": 60.0}, seed=4, max_effects=1, candidates=which, time_limit=1e-3)
+    assert not cut.complete
+    assert cut.incomplete[0].startswith("time limit of 0.001 s reached: ")
+    assert re.search(r"none of \d+ candidates tried$", cut.incomplete[0]) and not cut.hypotheses
+    assert cut.verdict.startswith("Incomplete search")
+    doc = json.loads(cut.to_json())
+    assert doc["complete"] is False and doc["incomplete"] == cut.incomplete
+    assert "## Incomplete search" in cut.to_markdown()

@@ -657,25 +657,31 @@ class FitProblem:
         return r.reshape(r.shape[0], -1)
 
     def jacobian(
-        self, z: NDArray[np.float64], r0: NDArray[np.float64], h: NDArray[np.float64]
+        self,
+        z: NDArray[np.float64],
+        r0: NDArray[np.float64],
+        h: NDArray[np.float64],
+        skip: NDArray[np.bool_] | None = None,
     ) -> NDArray[np.float64]:
         """Forward-difference Jacobian (N, n_free) at ``z`` with steps ``h`` (free units).
 
         Shared columns are simulated on every experiment in one batch each;
-        a local column only on its own experiment.
+        a local column only on its own experiment. Columns where ``skip`` is
+        true are not computed (left zero: the caller fills them).
         """
         ne = len(self.experiments)
         sizes = [self.experiments[i].n * len(self.experiments[i].outputs) for i in range(ne)]
         offs = np.concatenate([[0], np.cumsum(sizes)])
         J = np.zeros((int(offs[-1]), self.n_free))
         g = self.n_global
-        if g:
-            Z = np.repeat(z[None], g, axis=0)
-            Z[np.arange(g), np.arange(g)] += h[:g]
+        cols = np.arange(g) if skip is None else np.flatnonzero(~skip[:g])
+        if cols.size:
+            Z = np.repeat(z[None], cols.size, axis=0)
+            Z[np.arange(cols.size), cols] += h[cols]
             for i in range(ne):
                 R = self._weighted(self.simulate(Z, i), i)
-                J[offs[i] : offs[i + 1], :g] = (
-                    (R - r0[None, offs[i] : offs[i + 1]]) / h[:g, None]
+                J[offs[i] : offs[i + 1], cols] = (
+                    (R - r0[None, offs[i] : offs[i + 1]]) / h[cols, None]
                 ).T
         if self.n_local:
             L = self.n_local
@@ -793,6 +799,7 @@ def fit_model(
     deadline: float | None = None,
     seed: int = 0,
     covariance: bool = True,
+    frozen: Sequence[str] = (),
 ) -> FitOutcome:
     """Bounded least squares of the weighted simulation error (see the module docstring).
 
@@ -818,6 +825,11 @@ def fit_model(
         Of the random starts.
     covariance : bool
         Compute the Jacobian and covariance at the optimum.
+    frozen : sequence of str
+        Shared free parameters whose Jacobian columns are computed once, at
+        the first point, and reused (a quasi-Newton shortcut for a screening
+        fit whose other parameters start at their optimum: each iteration
+        then simulates only the remaining columns).
 
     Returns
     -------
@@ -849,8 +861,11 @@ def fit_model(
     best: dict[str, Any] = {"z": cands[0], "cost": math.inf, "r": None}
     nfev_total, njev_total = 0, 0
     message, success = "", False
+    names_g = [p for p, loc in zip(problem.free, problem._is_local, strict=True) if not loc]
+    skip = np.array([p in frozen for p in names_g] + [False] * (k - g), dtype=bool)
+    kept: dict[str, NDArray[np.float64]] = {}
     for c0 in cands:
-        fun, jac = _objective(problem, lo, span, best, deadline)
+        fun, jac = _objective(problem, lo, span, best, deadline, skip if skip.any() else None, kept)
         try:
             res = box_least_squares(
                 fun, jac, (c0 - lo) / span, max_nfev=max_nfev, xtol=xtol, ftol=ftol
@@ -859,13 +874,17 @@ def fit_model(
             njev_total += res.njev
             message, success = res.message, res.success
         except _Stop:
-            message, success = "stopped at the time limit", False
+            message, success = STOPPED, False
             break
     z_opt = best["z"]
     r = best["r"] if best["r"] is not None else problem.residuals(z_opt[None])[0]
     return _outcome(
         problem, z_opt, r, None, nfev_total, njev_total, t0, success, message, covariance
     )
+
+
+#: FitOutcome message of a refinement the time limit stopped.
+STOPPED = "stopped at the time limit"
 
 
 class _Stop(Exception):
@@ -878,8 +897,14 @@ def _objective(
     span: NDArray[np.float64],
     best: dict[str, Any],
     deadline: float | None,
+    skip: NDArray[np.bool_] | None = None,
+    kept: dict[str, NDArray[np.float64]] | None = None,
 ) -> tuple[Any, Any]:
-    """Residuals and Jacobian in unit coordinates, cached, tracking the best point in ``best``."""
+    """Residuals and Jacobian in unit coordinates, cached, tracking the best point in ``best``.
+
+    Columns where ``skip`` is true are computed at the first Jacobian only and
+    kept in ``kept`` (shared between refinements).
+    """
     cache: dict[bytes, NDArray[np.float64]] = {}
     h_unit = 1e-6
 
@@ -902,7 +927,14 @@ def _objective(
         r0 = fun(s)
         steps = np.where(s + h_unit <= 1.0, h_unit, -h_unit)
         z = lo + np.clip(s, 0.0, 1.0) * span
-        return problem.jacobian(z, r0, steps * span) * span[None, :]
+        if skip is None or kept is None:
+            return problem.jacobian(z, r0, steps * span) * span[None, :]
+        if "J" not in kept:
+            kept["J"] = problem.jacobian(z, r0, steps * span) * span[None, :]
+            return kept["J"].copy()
+        J = problem.jacobian(z, r0, steps * span, skip=skip) * span[None, :]
+        J[:, skip] = kept["J"][:, skip]
+        return J
 
     return fun, jac
 

@@ -103,6 +103,10 @@ class DiagnosisReport:
         The parameter-or-physics test: given against re-calibrated parameters.
     baseline : dict
         The plain ARX baseline on the same data.
+    complete : bool
+        False when the time limit cut the search short (``incomplete`` says
+        what was left out; the ranking covers only what was tried).
+    incomplete : list of str
     nominal_adequate : bool
         Whether the nominal model predicts the held-out data at least as well
         as the plain ARX.
@@ -132,6 +136,8 @@ class DiagnosisReport:
     parameters: dict[str, Any] = field(default_factory=dict)
     baseline: dict[str, Any] = field(default_factory=dict)
     nominal_adequate: bool = True
+    complete: bool = True
+    incomplete: list[str] = field(default_factory=list)
     stages: dict[str, float] = field(default_factory=dict)
     selection: list[dict[str, Any]] = field(default_factory=list)
     # arrays kept for figures (not in the JSON)
@@ -146,10 +152,16 @@ class DiagnosisReport:
         """One sentence (or two): what was found."""
         named = self.named_effects or [self.best.get("effect", "none")]
         lead = ""
+        if not self.complete:
+            why = (self.incomplete[0].split(": ")[0]) if self.incomplete else "time limit reached"
+            lead = (
+                f"Incomplete search ({why}; what was left out is listed under 'incomplete', "
+                "and a longer time limit gives the whole search). "
+            )
         if not self.nominal_adequate:
             b = self.baseline.get("validation", {}).get("mean", math.nan)
             n = self.baseline.get("nominal_validation", {}).get("mean", math.nan)
-            lead = (
+            lead += (
                 f"Nominal model inadequate: a plain ARX predicts the held-out data better "
                 f"(mean NRMSE {b:.3f} against {n:.3f}). "
             )
@@ -226,6 +238,8 @@ class DiagnosisReport:
             "named_effects": list(self.named_effects),
             "combination": self.combination,
             "nominal_adequate": self.nominal_adequate,
+            "complete": self.complete,
+            "incomplete": list(self.incomplete),
             "baseline": self.baseline,
             "parameters": self.parameters,
             "selection": self.selection,
@@ -376,6 +390,16 @@ class DiagnosisReport:
                 f"against the nominal model's "
                 f"{_f(self.baseline.get('nominal_validation', {}).get('mean'))}. What follows "
                 "stands on a model that misses more than one effect can explain.",
+                "",
+            ]
+        if not self.complete:
+            parts += [
+                "## Incomplete search",
+                "",
+                "The time limit cut the search short; the ranking below covers only what was "
+                "tried:",
+                "",
+                *[f"* {x}" for x in self.incomplete],
                 "",
             ]
         if self.combination:

@@ -740,7 +740,8 @@ def _stage_selection(st: _Run) -> None:
     parent = st.nominal
     for h in sel.steps:
         if st.data.expired:
-            break
+            st.data.skip(f"no generic-fix baseline beside {h.last.label}")
+            continue
         n = max(2, h.k_global - parent.k_global)
         g = generic_fix(st.ctx, n)
         if h.last.effect == "missing_dynamics" and h.last.form == g.form:
@@ -759,8 +760,11 @@ def _stage_selection(st: _Run) -> None:
                 "with as many parameters fits the held-out data as well or better"
             )
         parent = h
-    if not sel.steps and st.opts["sparse"] and not st.data.expired:
-        _sparse(st, sel)
+    if not sel.steps and st.opts["sparse"]:
+        if st.data.expired:
+            st.data.skip("the sparse regression of the residual not tried")
+        else:
+            _sparse(st, sel)
     st.selection = sel
 
 
@@ -900,6 +904,12 @@ def _stage_report(st: _Run) -> DiagnosisReport:
         notes=st.notes,
     )
     report.named_effects = named
+    if st.data is not None and st.data.skipped:
+        report.complete = False
+        report.incomplete = [
+            f"time limit of {o['time_limit']:g} s reached: " + st.data.skipped[0],
+            *st.data.skipped[1:],
+        ]
     report.parameters = par
     report.baseline = {k: v for k, v in st.arx.items() if k != "sims"}
     report.nominal_adequate = bool(st.arx.get("nominal_adequate", True))

@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 
 from thermogym.identification.diagnosis.fit import (
     LOCAL_GROUP,
+    STOPPED,
     Experiment,
     FitProblem,
     fit_model,
@@ -103,11 +104,18 @@ class Data:
     max_nfev: int = 25
     deadline: float | None = None
     say: Callable[[str], None] = field(default=lambda s: None)
+    #: What the time limit left out, in words (the report says the search is incomplete).
+    skipped: list[str] = field(default_factory=list)
 
     @property
     def expired(self) -> bool:
         """Whether the time limit has passed."""
         return self.deadline is not None and time.perf_counter() > self.deadline
+
+    def skip(self, what: str) -> None:
+        """Record that the time limit left ``what`` out."""
+        if what not in self.skipped:
+            self.skipped.append(what)
 
 
 def nrmse_table(
@@ -267,8 +275,13 @@ def fit_hypothesis(
                 max_nfev=nfev,
                 deadline=data.deadline,
                 covariance=not screen,
+                # screening: the parent's own parameters start at their optimum, their
+                # Jacobian columns are computed once (the joint refit recomputes them all)
+                frozen=parent_g if screen else (),
             )
             h.outcome = out
+            if out.message == STOPPED and cand is not None:
+                data.skip(f"the fit of {cand.label} stopped at the time limit")
             h.theta = out.theta.copy()
             for p in local:  # the model reported runs with per-recording parts neutral
                 h.theta[model.param_index(p)] = model.nominal[model.param_index(p)]
@@ -425,9 +438,19 @@ def _round(
     re-estimated courses), whether each passes, and the screened rest.
     """
     screened = []
-    for c in pool:
+    for i, c in enumerate(pool):
         if data.expired:
-            data.say(f"time limit: {c.label} not screened")
+            data.say(f"time limit: {len(pool) - i} of {len(pool)} candidates not screened")
+            data.skip(
+                f"{len(pool) - i} of {len(pool)} candidates not screened"
+                + (
+                    f" on top of {' + '.join(x.label for x in current.candidates)}"
+                    if current.candidates
+                    else ""
+                )
+                + f" ({', '.join(x.label for x in pool[i : i + 3])}"
+                + (", ...)" if len(pool) - i > 3 else ")")
+            )
             break
         screened.append(fit_hypothesis(spec, current, c, data, nominal, screen=True))
     ok = sorted((h for h in screened if not h.error), key=lambda h: h.delta_ic_train)
@@ -438,8 +461,9 @@ def _round(
         if h not in top:
             top.append(h)
     fitted = []
-    for hs in top:
+    for j, hs in enumerate(top):
         if data.expired:
+            data.skip(f"{len(top) - j} screened candidates not refitted jointly")
             break
         start = {p: hs.value(p) for p in hs.extra if p in hs.model.param_names}
         h = fit_hypothesis(spec, current, hs.last, data, nominal, start=start)
@@ -596,6 +620,13 @@ def forward_selection(
         grown: list[tuple[list[Hypothesis], list[Candidate], bool]] = []
         for steps, pool, done in paths:
             if done or not pool or data.expired:
+                if not done and pool and data.expired:
+                    data.skip(
+                        f"none of {len(pool)} candidates tried on top of "
+                        + " + ".join(h.last.label for h in steps if h.last)
+                        if steps
+                        else f"none of {len(pool)} candidates tried"
+                    )
                 grown.append((steps, pool, True))
                 continue
             current = steps[-1] if steps else nominal
