@@ -135,3 +135,37 @@ def test_a_search_the_time_limit_cut_short_says_so_and_what_it_left_out():
     doc = json.loads(cut.to_json())
     assert doc["complete"] is False and doc["incomplete"] == cut.incomplete
     assert "## Incomplete search" in cut.to_markdown()
+
+
+@pytest.mark.parametrize("seed", [5, 6, 7])
+def test_a_constant_offset_is_not_taken_for_a_disturbance_course_it_looks_like(seed):
+    # once the initial state is estimated, a constant sensor offset and a constant unmeasured
+    # change of the air look alike; the disturbance's course, re-estimated on every held-out
+    # recording, also follows their noise. The offset predicts the held-out data outright
+    tr, va = node_recordings(seed, effects={"offset": 1.0}, hours=1.5, dt=10.0, coloured=0.0)
+    rep = diagnose(
+        NodeModel(), tr, va, candidates=["sensor_offset", "unmeasured_disturbance"], max_effects=1
+    )
+    assert rep.named_effects[0] == "sensor_offset"
+    assert rep.best["params"]["offset_T"]["value"] == pytest.approx(1.0, abs=0.2)
+
+
+def test_an_effect_that_barely_changes_the_prediction_is_not_material():
+    import numpy as np
+
+    from thermogym.identification.diagnosis.hypothesis import Hypothesis
+    from thermogym.identification.diagnosis.select import Data, change_snr
+
+    rng = np.random.default_rng(0)
+    base = [rng.normal(size=(200, 2)), rng.normal(size=(100, 2))]
+    parent = Hypothesis(candidates=())
+    parent.sims_val = base
+    small = Hypothesis(candidates=())
+    small.sims_val = [b + np.array([0.01, 0.02]) for b in base]
+    data = Data([], [], np.ones(2), "estimate", noise=np.array([0.1, 0.1]), min_snr=0.5)
+    assert change_snr(small, parent, data) == pytest.approx(0.2)  # the larger output's
+    big = Hypothesis(candidates=())
+    big.sims_val = [b + np.array([0.0, 0.3]) for b in base]
+    assert change_snr(big, parent, data) == pytest.approx(3.0)
+    data.noise = None  # unknown noise: materiality is not asked
+    assert change_snr(small, parent, data) == math.inf

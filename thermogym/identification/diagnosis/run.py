@@ -592,6 +592,9 @@ def _stage_location(st: _Run) -> None:
         vals = [v for v in vals if math.isfinite(v)]
         sigma[o] = float(np.sqrt(np.mean(np.square(vals)))) if vals else math.nan
     st.sigma = sigma
+    if st.data is not None:
+        st.data.noise = np.array([sigma[o] for o in st.outs], dtype=float)
+        st.data.min_snr = float(st.opts["min_snr"])
     scale = {o: 1.0 / float(st.weights[j]) for j, o in enumerate(st.outs)}
     st.regs = regime_variables(
         [e.name for e in all_exps],
@@ -780,7 +783,9 @@ def _sparse(st: _Run, sel: Selection) -> None:
     for c in cands:
         h = fit_hypothesis(st.spec, st.nominal, c, st.data, st.nominal)
         sel.first_round.append(h)
-        if passes(h, st.nominal, len(cands)) and (best is None or h.delta_ic < best.delta_ic):
+        if passes(h, st.nominal, len(cands), st.data) and (
+            best is None or h.delta_ic < best.delta_ic
+        ):
             best = h
     if best is not None:
         sel.steps.append(best)

@@ -67,6 +67,9 @@ MAX_EFFECTS = 3
 BEAM = 2
 #: Least share of the nominal model's systematic held-out error a kept effect removes.
 MIN_SHARE = 0.05
+#: Share of a re-estimated course's held-out gain that a predictive hypothesis must reach to be
+#: preferred to it (the course then joins only on top, if it still removes a material share).
+PREDICTIVE_SHARE = 0.95
 #: Evaluations of a screening fit (joint, from the neutral values and the starts).
 _SCREEN_NFEV = 8
 #: Hypotheses refitted jointly after screening: in the first round, in later rounds.
@@ -104,6 +107,10 @@ class Data:
     max_nfev: int = 25
     deadline: float | None = None
     say: Callable[[str], None] = field(default=lambda s: None)
+    #: White-noise level of each output (data units; NaN when unknown) and the least ratio of
+    #: a kept effect's change to the held-out prediction to it (the detection's materiality).
+    noise: NDArray[np.float64] | None = None
+    min_snr: float = 0.0
     #: What the time limit left out, in words (the report says the search is incomplete).
     skipped: list[str] = field(default_factory=list)
 
@@ -356,21 +363,40 @@ def _score(h: Hypothesis, parent: Hypothesis, nominal: Hypothesis, data: Data, o
     h.validation_after = nrmse_table(outs, [e.y for e in data.val], h.sims_val)
 
 
-def passes(h: Hypothesis, parent: Hypothesis, m: int) -> bool:
+def passes(h: Hypothesis, parent: Hypothesis, m: int, data: Data | None = None) -> bool:
     """Kept: held-out improvement beyond the coloured noise, by the information criterion.
 
     ``ΔIC + 2 ln m < 0`` on the held-out data (``m`` candidates in the round:
     the extended BIC's prior over them), and material: the held-out squared
     error falls by at least :data:`MIN_SHARE` of the nominal model's
     systematic held-out error (what an effect of the wrong form leaves behind
-    is significant at thousands of samples, but not material).
+    is significant at thousands of samples, but not material), and the effect
+    changes the held-out prediction of some output by at least
+    ``data.min_snr`` × that output's noise level (RMS; the materiality the
+    detection asks of a mismatch, asked of what is to explain it).
     """
     return bool(
         h.ok
         and h.delta_ic + 2.0 * math.log(max(m, 1)) < 0.0
         and h.wsse_val < parent.wsse_val
         and h.explained - parent.explained >= MIN_SHARE
+        and (data is None or change_snr(h, parent, data) >= data.min_snr)
     )
+
+
+def change_snr(h: Hypothesis, parent: Hypothesis, data: Data) -> float:
+    """Largest RMS change of an output's held-out prediction by ``h``, in noise units.
+
+    Infinite when the noise level is unknown.
+    """
+    if data.noise is None or not h.sims_val or not parent.sims_val:
+        return math.inf
+    d = np.concatenate([a - b for a, b in zip(h.sims_val, parent.sims_val, strict=True)])
+    rms = np.sqrt(np.nanmean(d**2, axis=0))
+    ok = np.isfinite(data.noise) & (data.noise > 0)
+    if not ok.any():
+        return math.inf
+    return float(np.nanmax(np.where(ok, rms / np.where(ok, data.noise, 1.0), -math.inf)))
 
 
 @dataclass
@@ -476,7 +502,7 @@ def _round(
             f"{h.validation_after.get('mean', math.nan):.4f} ({h.seconds:.1f} s)"
         )
     m = max(1, len(screened))
-    oks = {id(h): passes(h, current, m) for h in fitted}
+    oks = {id(h): passes(h, current, m, data) for h in fitted}
     # a per-recording course must not follow the inputs (an unmeasured disturbance is not set
     # by the operator); one that does absorbed a structure error, and is not kept
     for h in fitted:
@@ -487,10 +513,27 @@ def _round(
                 h.notes.append(
                     f"its course follows {where} (p = {p:.2g}): not independent of the inputs"
                 )
+    # a course re-estimated on every held-out recording can follow whatever is left there
+    # (coloured noise too): when a hypothesis that predicts the held-out data outright removes
+    # nearly all the error the course removes, the course adds nothing the data can vouch for
+    # (a constant sensor offset and a constant unmeasured disturbance look alike once the
+    # initial state is estimated); it may still join on top, as a second effect
+    pred = [h for h in fitted if oks[id(h)] and h.k_local == current.k_local]
+    for h in fitted:
+        gain = h.explained - current.explained
+        if not (oks[id(h)] and h.k_local > current.k_local and gain > 0 and pred):
+            continue
+        p_best = max(pred, key=lambda x: x.explained)
+        ratio = (p_best.explained - current.explained) / gain
+        if ratio >= PREDICTIVE_SHARE:
+            oks[id(h)] = False
+            h.notes.append(
+                f"{p_best.last.label} predicts the held-out data without re-estimating a course "
+                f"there and removes {100 * min(ratio, 1.0):.1f} % of the error this one removes"
+            )
     # a hypothesis that predicts the held-out data outright is stronger evidence than one
     # whose course had to be re-estimated on them, unless that one is both independent of the
     # inputs and better by the information criterion
-    pred = [h for h in fitted if oks[id(h)] and h.k_local == current.k_local]
     best_pred = min((_key(h) for h in pred), default=math.inf)
     fitted.sort(
         key=lambda h: (
@@ -669,6 +712,18 @@ def forward_selection(
     finals = [(steps, total_ic(nominal, steps[-1], data)) for steps in kept or ended]
     if finals:
         steps, _ = min(finals, key=lambda x: x[1])
+        # the same preference as within a round: a combination with fewer courses re-estimated
+        # on the held-out data that removes nearly all the error the best one removes
+        gain = steps[-1].explained
+        simpler = [
+            (s, ic)
+            for s, ic in finals
+            if s[-1].k_local < steps[-1].k_local
+            and gain > 0
+            and s[-1].explained >= PREDICTIVE_SHARE * gain
+        ]
+        if simpler:
+            steps, _ = min(simpler, key=lambda x: (x[0][-1].k_local, x[1]))
         # paths that reach the same combination in another order: the order is the one whose
         # first effect explained most on its own (the shares are counted along the order)
         same = [s for s, _ in finals if _labels(s) == _labels(steps)]
