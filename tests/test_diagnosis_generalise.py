@@ -169,3 +169,20 @@ def test_an_effect_that_barely_changes_the_prediction_is_not_material():
     assert change_snr(big, parent, data) == pytest.approx(3.0)
     data.noise = None  # unknown noise: materiality is not asked
     assert change_snr(small, parent, data) == math.inf
+
+
+def test_a_step_test_logged_from_the_step_identifies_the_gain_on_real_data():
+    # TCLab heater 1 step test: Q1 = 50 % from the first sample to the last. With the initial
+    # state free, the gain cannot be told from the state the log starts in (a fit with K = 0
+    # and the rise as a free response fits it as well); the step from zero is the evidence
+    from thermogym.datasets import load
+
+    step, sine = load("tclab_step"), load("tclab_sine")
+    rep = diagnose("foptd", [step], [sine], inputs=["Q1"], outputs=["T1"])
+    assert any("constant within every training recording" in n for n in rep.notes)
+    k = rep.nominal_fit.to_dict()["parameters"]["K_T1"]
+    k = k["value"] if isinstance(k, dict) else k
+    assert 0.5 < k < 1.0  # K per %: 50 % gives a rise of about 39 K over the room
+    held_out = rep.fit_before["validation"]["mean"]
+    assert held_out > 0.8 and held_out > rep.baseline["validation"]["mean"]
+    assert rep.nominal_adequate

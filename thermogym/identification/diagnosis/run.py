@@ -346,10 +346,34 @@ def _check_inputs(st: _Run) -> None:
         )
     if st.generic and o["params"] is None:
         # operating point: the training data's mean exogenous values (model column order)
-        u = np.concatenate([r.exogenous_array(nominal) for r in st.tr_list])
+        us = [r.exogenous_array(nominal) for r in st.tr_list]
+        u = np.concatenate(us)
         spec.base_config["u_op"] = np.nanmean(u, axis=0).tolist()
+        if all(_constant(x) for x in us):
+            # every input holds one value through every training recording (a step test logged
+            # from the step on): with the initial state free, the input's effect cannot be told
+            # from the state the recording starts in. Its only evidence is the step from zero at
+            # the start, so the recordings are taken to start at rest with the inputs off before
+            spec.base_config["u_op"] = [0.0] * u.shape[1]
+            if "steady_start" in spec.base_config:
+                spec.base_config["steady_start"] = False
+            st.x0 = "rest"
+            st.notes.append(
+                "every input is constant within every training recording: the recordings are "
+                "taken to start at rest with the inputs at zero before their start (the initial "
+                "state is not estimated; give training recordings in which the inputs change to "
+                "have it estimated)"
+            )
         nominal = spec.build()
     st.model, st.spec, st.outs = nominal, spec, outs
+
+
+def _constant(u: NDArray[np.float64]) -> bool:
+    """Whether every column of ``u`` (T, n) holds one value (NaN samples ignored)."""
+    if u.size == 0:
+        return False
+    lo, hi = np.nanmin(u, axis=0), np.nanmax(u, axis=0)
+    return bool(np.all(hi - lo <= 1e-9 * np.maximum(1.0, np.abs(hi))))
 
 
 def _stage_nominal(st: _Run) -> None:
