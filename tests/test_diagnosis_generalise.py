@@ -186,3 +186,16 @@ def test_a_step_test_logged_from_the_step_identifies_the_gain_on_real_data():
     held_out = rep.fit_before["validation"]["mean"]
     assert held_out > 0.8 and held_out > rep.baseline["validation"]["mean"]
     assert rep.nominal_adequate
+
+
+def test_held_out_inputs_beyond_the_training_range_are_said():
+    # training at commands up to 30 %, held out up to 100 %: what is named there is
+    # extrapolation, and the report says so
+    tr, va = node_recordings(5, hours=1.0, dt=10.0, train_levels=(10.0, 30.0, 20.0))
+    rep = diagnose(NodeModel(), tr, va, candidates=["sensor_offset"], max_effects=1)
+    notes = [n for n in rep.notes if "beyond its training range" in n]
+    assert len(notes) == 1 and notes[0].startswith("the held-out recordings take u to ")
+    # the same levels held out: nothing said
+    tr2, va2 = node_recordings(5, hours=1.0, dt=10.0)
+    rep2 = diagnose(NodeModel(), tr2, va2, candidates=["sensor_offset"], max_effects=1)
+    assert not any("beyond its training range" in n for n in rep2.notes)

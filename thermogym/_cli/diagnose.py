@@ -163,6 +163,8 @@ def run(args: argparse.Namespace) -> int:
         if args.augmented_fit and rep.augmented_fit is not None:
             rep.augmented_fit.save(plan.path("--augmented-fit"))
     print(rep.verdict)
+    for n in rep.notes:  # assumptions taken and warnings (extrapolation, units, resampling)
+        print(f"note:   {n}")
     print(f"named:  {', '.join(rep.named_effects)}")
     print(f"report: {args.out}")
     if args.html:

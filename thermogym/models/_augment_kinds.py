@@ -498,6 +498,22 @@ class _InputMap(_Aug):
                     f"saturation of {sig}: u (1 + c)/(1 + c|u|/u_ref)",
                 )
             ]
+        elif self.form == "limit":
+            # a hard limit (an actuator's current or stroke limit): u passes unchanged up to
+            # the level L and no further; neutral at the top of its range (10 × the largest
+            # input given), where it limits nothing
+            u_max = _number(spec, "u_max", self.u_ref, self.effect)
+            lo, hi = _bounds(spec, "level", (0.02 * u_max, 10.0 * u_max))
+            self.params = [
+                _param(
+                    f"lim_{sig}",
+                    hi,
+                    lo,
+                    hi,
+                    unit,
+                    f"limit of {sig}: sign(u) min(|u|, L)",
+                )
+            ]
         elif self.form == "dead_zone":
             lo, hi = _bounds(spec, "d", (0.0, 0.9 * self.u_ref))
             self.params = [
@@ -536,7 +552,8 @@ class _InputMap(_Aug):
             ]
         else:
             raise ConfigError(
-                f"input_nonlinearity form {self.form!r}; forms are power, saturation, dead_zone, "
+                f"input_nonlinearity form {self.form!r}; forms are power, saturation, limit, "
+                "dead_zone, "
                 "piecewise_linear"
             )
 
@@ -547,6 +564,8 @@ class _InputMap(_Aug):
         if self.form == "saturation":
             c = p[..., 0:1]
             return x * (1.0 + c) / (1.0 + c * np.abs(x) / ur)
+        if self.form == "limit":
+            return np.sign(x) * np.minimum(np.abs(x), p[..., 0:1])
         if self.form == "dead_zone":
             d = np.minimum(p[..., 0:1], 0.999 * ur)
             return np.sign(x) * np.maximum(np.abs(x) - d, 0.0) * ur / (ur - d)
@@ -1467,6 +1486,7 @@ KINDS: dict[tuple[str, str], type[_Aug]] = {
     ("input_nonlinearity", ""): _InputMap,
     ("input_nonlinearity", "power"): _InputMap,
     ("input_nonlinearity", "saturation"): _InputMap,
+    ("input_nonlinearity", "limit"): _InputMap,
     ("input_nonlinearity", "dead_zone"): _InputMap,
     ("input_nonlinearity", "piecewise_linear"): _InputMap,
     ("backlash", ""): _OutputPlay,

@@ -27,6 +27,7 @@ unmeasured_disturbance, periodic/steps/smooth input   ``port += d(t)`` (per-reco
 supply_variation, steps / smooth              input   ``u_i (1 + s(t))`` (per-recording course)
 input_nonlinearity, power                     input   ``u_ref (u/u_ref)^α``
 input_nonlinearity, saturation                input   ``u (1 + c)/(1 + c|u|/u_ref)``
+input_nonlinearity, limit                     input   ``sign(u) min(|u|, L)`` (hard limit)
 input_nonlinearity, dead_zone                 input   ``max(|u| − d, 0) u_ref/(u_ref − d)``
 input_nonlinearity, piecewise_linear          input   monotone map through fixed input knots
 backlash, input / output                      input / play operator of half-width ``c``

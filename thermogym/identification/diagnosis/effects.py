@@ -25,8 +25,9 @@ transport_delay                   input / output dead time        cross-correlat
 sensor_lag                        first-order lag                 ``e ≈ −τ dŷ/dt`` on one output
 sensor_offset / sensor_drift      constant / linear in time       constant / growing error
 unmeasured_disturbance            periodic, steps, smooth         autocorrelated, input-free
-input_nonlinearity                power, saturation, dead zone,   error depends on the input
-                                  monotone piecewise-linear       level
+input_nonlinearity                power, saturation, hard limit,  error depends on the input
+                                  dead zone, monotone piecewise-  level
+                                  linear
 input_dependent_heat_transfer     conductance ∝ input^m           level and speed of response
 nonlinear_heat_transfer           radiation (T⁴), convection      error depends on the
                                   (ΔT^1.25)                       temperature band
@@ -480,6 +481,12 @@ def _input_nonlinearity(ctx: Context) -> list[Candidate]:
         forms = [
             ("power", "power law", {}, {f"alpha_{i}": (0.5, 2.0)}),
             ("saturation", "saturation", {}, {f"sat_{i}": (0.2, 3.0)}),
+            (
+                "limit",
+                "hard limit",
+                {"u_max": max(abs(lo_u), abs(hi_u)) or ur},
+                {f"lim_{i}": (0.2 * max(abs(lo_u), abs(hi_u)), 0.9 * max(abs(lo_u), abs(hi_u)))},
+            ),
             (
                 "dead_zone",
                 "dead zone",

@@ -368,6 +368,33 @@ def _check_inputs(st: _Run) -> None:
     st.model, st.spec, st.outs = nominal, spec, outs
 
 
+def _beyond_training(names: Sequence[str], tr: Sequence[Any], va: Sequence[Any]) -> list[str]:
+    """Notes on inputs the held-out recordings take beyond the training range (extrapolation).
+
+    Beyond by more than 10 % of the training span at either end: what the held-out data
+    show there, the training data could not have taught any hypothesis.
+    """
+    out = []
+    for i, name in enumerate(names):
+        a = np.concatenate([e.u[:, i] for e in tr])
+        b = np.concatenate([e.u[:, i] for e in va])
+        a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+        if not (a.size and b.size):
+            continue
+        lo, hi = float(a.min()), float(a.max())
+        span = hi - lo
+        if span <= 0:
+            continue
+        blo, bhi = float(b.min()), float(b.max())
+        if bhi > hi + 0.1 * span or blo < lo - 0.1 * span:
+            out.append(
+                f"the held-out recordings take {name} to {blo:.4g}..{bhi:.4g}, beyond its "
+                f"training range {lo:.4g}..{hi:.4g}: a mismatch there may be extrapolation "
+                "the training data could not teach any hypothesis (train over the whole range)"
+            )
+    return out
+
+
 def _constant(u: NDArray[np.float64]) -> bool:
     """Whether every column of ``u`` (T, n) holds one value (NaN samples ignored)."""
     if u.size == 0:
@@ -391,6 +418,7 @@ def _stage_nominal(st: _Run) -> None:
                 f"{_MIN_SAMPLES} per recording (too short to fit or validate)"
             )
     st.notes += [n for e in st.tr + st.va for n in e.notes]
+    st.notes += _beyond_training(list(model.exogenous_names), st.tr, st.va)
     st.weights = output_weights(st.tr)
     # ---- the given parameters
     given = model.nominal.copy()
