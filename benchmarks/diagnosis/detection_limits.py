@@ -120,6 +120,7 @@ def _one(label: dict, case: Case, time_limit: float | None) -> dict[str, Any]:
 def summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """Per effect and magnitude: seeds named / flagged; the limit; the controls' rates."""
     eff: dict[str, Any] = {}
+    ctl = [r for r in rows if r["effect"] == "control"]
     for eff_name, form, par, unit, mags, _ in LADDERS:
         per = []
         for m in mags:
@@ -134,6 +135,8 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
             )
         ok = [p["magnitude"] for p in per if p["n"] and p["named"] >= SHARE * p["n"]]
         eff[eff_name] = {
+            # controls that name this effect: the rate a "named" count is to be read against
+            "controls_naming": sum(eff_name in r["named_effects"] for r in ctl),
             "form": form,
             "param": par,
             "unit": unit,
@@ -150,7 +153,6 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
             if ok
             else None,
         }
-    ctl = [r for r in rows if r["effect"] == "control"]
     return {
         "effects": eff,
         "controls": {
@@ -176,8 +178,9 @@ def markdown(doc: Mapping[str, Any]) -> str:
         f"magnitude from which every larger one is named in at least {100 * s['share']:.0f} % "
         "of the seeds.",
         "",
-        "| effect (form) | magnitudes | named / seeds | flagged / seeds | limit |",
-        "|---|---|---|---|---|",
+        "| effect (form) | magnitudes | named / seeds | flagged / seeds | limit | "
+        "controls naming it |",
+        "|---|---|---|---|---|---|",
     ]
     for name, e in s["effects"].items():
         mags = ", ".join(f"{p['magnitude']:g}" for p in e["ladder"])
@@ -185,8 +188,10 @@ def markdown(doc: Mapping[str, Any]) -> str:
         flagged = ", ".join(f"{p['flagged']}/{p['n']}" for p in e["ladder"])
         unit = f" {e['unit']}" if e["unit"] else ""
         lim = f"{e['limit']:g}{unit}" if e["limit"] is not None else "not reached"
+        n_ctl = s["controls"]["n"]
         lines.append(
-            f"| {name} ({e['form']}, {e['param']}) | {mags}{unit} | {named} | {flagged} | {lim} |"
+            f"| {name} ({e['form']}, {e['param']}) | {mags}{unit} | {named} | {flagged} | {lim} | "
+            f"{e.get('controls_naming', '–')}/{n_ctl} |"
         )
     c = s["controls"]
     rate = "–" if c["false_alarm_rate"] is None else f"{100 * c['false_alarm_rate']:.0f} %"
@@ -214,6 +219,8 @@ def plot(doc: Mapping[str, Any], path: Path) -> None:
         ax.plot(x, [p["flagged"] / max(p["n"], 1) for p in e["ladder"]], "s--", label="flagged")
         ax.axhline(doc["summary"]["share"], color="grey", lw=0.8)
         ax.set_xscale("log")
+        ax.minorticks_off()
+        ax.set_xticks(x, [f"{v:g}" for v in x], fontsize=8)
         ax.set_ylim(-0.05, 1.05)
         ax.set_title(name, fontsize=9)
         ax.set_xlabel(f"{e['param']} [{e['unit']}]" if e["unit"] else e["param"], fontsize=8)

@@ -659,6 +659,8 @@ def forward_selection(
     paths: list[tuple[list[Hypothesis], list[Candidate], bool]] = [([], list(candidates), False)]
     # per path (by the id of its step list): the candidates its last round tried and rejected
     rejected: dict[int, set[str]] = {}
+    full: list[Candidate] = list(candidates)
+    promising: set[int] = {id(c) for c in candidates}
     for r in range(max_effects):
         grown: list[tuple[list[Hypothesis], list[Candidate], bool]] = []
         for steps, pool, done in paths:
@@ -680,10 +682,20 @@ def forward_selection(
                 sel.rounds.append(fitted)
                 sel.passed.append(oks)
                 sel.first_round = [*fitted, *rest]
-                # later rounds screen only what improved the training fit on its own: an
-                # effect that explains nothing alone is not the second of a combination
-                promising = {id(h.last) for h in sel.first_round if h.delta_ic_train < 0}
-                pool = [c for c in pool if id(c) in promising]
+                # the second round of the leading path screens every candidate that could be
+                # fitted, those that helped the training fit most on their own first (under a
+                # time limit they are the ones tried): an effect masked by a larger one (a
+                # radiative loss under a sensor lag that smooths every transient) explains
+                # nothing alone and shows only once the larger one is modelled. Other paths
+                # and later rounds screen only what improved the training fit on its own
+                rank = {
+                    id(h.last): (h.delta_ic_train if math.isfinite(h.delta_ic_train) else 1e300)
+                    for h in sel.first_round
+                    if h.last is not None and not h.error
+                }
+                promising = {i for i, v in rank.items() if v < 0}
+                full = sorted((c for c in pool if id(c) in rank), key=lambda c: rank[id(c)])
+                pool = [c for c in full if id(c) in promising]
             elif steps is paths[0][0]:
                 sel.rounds.append(fitted)
                 sel.passed.append(oks)
@@ -692,9 +704,10 @@ def forward_selection(
                 rejected[id(steps)] = {h.last.label for h in [*fitted, *rest] if h.last}
                 grown.append((steps, pool, True))
                 continue
-            for w in winners[: beam if r == 0 else 1]:
+            for k, w in enumerate(winners[: beam if r == 0 else 1]):
                 data.say(f"kept {w.last.label} (ΔIC {w.delta_ic:.1f})")
-                grown.append(([*steps, w], _next_pool(pool, w), False))
+                nxt = full if (r == 0 and k == 0) else [c for c in pool if id(c) in promising]
+                grown.append(([*steps, w], _next_pool(nxt, w), False))
         paths = grown
         if all(done for _, _, done in paths):
             break
