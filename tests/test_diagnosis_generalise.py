@@ -199,3 +199,27 @@ def test_held_out_inputs_beyond_the_training_range_are_said():
     tr2, va2 = node_recordings(5, hours=1.0, dt=10.0)
     rep2 = diagnose(NodeModel(), tr2, va2, candidates=["sensor_offset"], max_effects=1)
     assert not any("beyond its training range" in n for n in rep2.notes)
+
+
+@pytest.mark.parametrize("seed", [4, 8])
+def test_a_named_course_beat_a_course_added_to_the_reading(seed):
+    # controls whose coloured sensor noise per-recording courses can follow: whatever course
+    # effect is still named must have fitted the held-out data better than a course of as
+    # many knots added to the reading unshaped (the baseline of item 6 for courses)
+    rep = _run({}, seed=seed, candidates=["unmeasured_disturbance", "time_varying_parameter"])
+    courses = {
+        (h["effect"], h["form"], h["target"])
+        for h in rep.hypotheses
+        if h.get("n_local_per_recording", 0) >= 2
+    }
+    for c in rep.combination:
+        if (c["effect"], c["form"], c["target"]) in courses:
+            base = c["baseline"]["course"]
+            assert base["physics_favoured"] and c["delta_ic"] < base["delta_ic"]
+    rejected = [
+        h
+        for h in rep.hypotheses
+        if any("coloured noise of the sensor" in n for n in h.get("notes", []))
+    ]
+    for h in rejected:
+        assert h["effect"] not in rep.named_effects or len(rep.combination) > 1

@@ -1438,6 +1438,50 @@ class _Offset(_Aug):
         return v + p[:, 0]
 
 
+class _SensorWander(_Aug, _CourseMixin):
+    """The sensor's reading wanders, per recording: a course added to the output.
+
+    Piecewise linear (``smooth``, the default) or constant over ``segments``
+    intervals of ``span`` seconds; the knots are fitted in every recording. The
+    diagnosis fits it beside a hypothesis whose course is re-estimated on the
+    held-out recordings: a course the plant's physics shapes should fit them
+    better than one added to the reading unshaped (coloured sensor noise).
+    """
+
+    effect = "sensor_drift"
+    form = "wander"
+    side = "sensor"
+    state_suffixes = ("t",)
+    x0_free = (False,)
+
+    def __init__(self, spec, base):
+        super().__init__(spec, base)
+        self._setup_course(spec, True)
+        unit = self.units.get(self.signal, "1")
+        a = _bounds(spec, "amplitude", (-100.0, 100.0))
+        sig = self.signal
+        self.params = [
+            _param(f"wander_k{i}_{sig}", 0.0, *a, unit, f"wander of {sig}, knot {i}", LOCAL)
+            for i in range(self.n_knots)
+        ]
+
+    def describe(self) -> str:
+        return f"wander of the reading, {self.knots_doc()}"
+
+    def course(self, p, t):
+        return _course(p, t, self.span, self.smooth)
+
+    def apply(self, arr, u, p, s0, dt):
+        t = s0[:, 0:1] + dt * np.arange(arr.shape[1])[None, :]
+        arr[:, :, self.col] += _course(p, t, self.span, self.smooth)
+
+    def now(self, v, u, p, s, dt):
+        return v + _course(p, s[:, 0:1], self.span, self.smooth)[:, 0]
+
+    def advance(self, v, u, p, s, dt, v_next=None):
+        return s + dt
+
+
 class _SensorDrift(_Aug):
     effect = "sensor_drift"
     form = "linear from the logger's start"
@@ -1511,6 +1555,7 @@ KINDS: dict[tuple[str, str], type[_Aug]] = {
     ("sensor_lag", ""): _Lag,
     ("sensor_offset", ""): _Offset,
     ("sensor_drift", ""): _SensorDrift,
+    ("sensor_drift", "wander"): _SensorWander,
 }
 
 

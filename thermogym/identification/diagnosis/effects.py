@@ -988,6 +988,32 @@ def candidates_for(ctx: Context, effects: list[str] | None = None) -> list[Candi
     return out
 
 
+def course_baseline(ctx: Context, n_knots: int) -> Candidate:
+    """A course of ``n_knots`` per recording added to the most erring output's reading.
+
+    The baseline of a hypothesis whose course is re-estimated on every held-out
+    recording: unshaped by the plant, it follows coloured sensor noise as well
+    as any course can. Not a candidate of the catalogue.
+    """
+    o = max(ctx.outputs, key=lambda x: ctx.share.get(x, 0.0))
+    amp = 20.0 * float(ctx.scale.get(o, 1.0))
+    spec = {
+        "effect": "sensor_drift",
+        "signal": o,
+        "form": "wander",
+        "span": ctx.span,
+        "segments": max(1, n_knots - 1),
+        "bounds": {"amplitude": [-amp, amp]},
+    }
+    return Candidate(
+        "sensor_drift",
+        "wander of the reading (a generic course)",
+        o,
+        (spec,),
+        evidence="baseline of a per-recording course",
+    )
+
+
 def generic_fix(ctx: Context, n_params: int) -> Candidate:
     """A generic linear fix with about ``n_params`` parameters (an extra state)."""
     return _parallel_path(ctx, max(2, n_params))[0]

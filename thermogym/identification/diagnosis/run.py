@@ -38,7 +38,12 @@ from thermogym._checks import probability
 from thermogym.errors import ConfigError, RecordingError, UnknownNameError
 from thermogym.fitresult import FitResult, data_entry, load_fit
 from thermogym.identification.diagnosis.context import Context, signatures
-from thermogym.identification.diagnosis.effects import CATALOGUE, candidates_for, generic_fix
+from thermogym.identification.diagnosis.effects import (
+    CATALOGUE,
+    candidates_for,
+    course_baseline,
+    generic_fix,
+)
 from thermogym.identification.diagnosis.fit import (
     FitProblem,
     output_weights,
@@ -776,6 +781,9 @@ def _stage_hypotheses(st: _Run) -> None:
             "(give units in the recording's sidecar to decide otherwise)"
         )
     st.ctx.features = signatures(st.ctx)
+    if st.data is not None:
+        ctx = st.ctx
+        st.data.course_baseline = lambda n: course_baseline(ctx, n)
     cands = candidates_for(st.ctx, list(st.opts["candidates"]) if st.opts["candidates"] else None)
     if st.opts["max_candidates"]:
         cands = cands[: st.opts["max_candidates"]]
@@ -804,6 +812,7 @@ def _stage_selection(st: _Run) -> None:
             continue
         gh = fit_hypothesis(st.spec, parent, g, st.data, st.nominal)
         h.baseline = {
+            **h.baseline,
             "generic_fix": f"{g.form} ({gh.k_global - parent.k_global} parameters)",
             "delta_ic": gh.delta_ic,
             "validation_after": gh.validation_after,

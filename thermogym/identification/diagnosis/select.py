@@ -111,6 +111,9 @@ class Data:
     #: a kept effect's change to the held-out prediction to it (the detection's materiality).
     noise: NDArray[np.float64] | None = None
     min_snr: float = 0.0
+    #: Makes the baseline of a per-recording course: a course of that many knots added to an
+    #: output's reading (:func:`.effects.course_baseline`); None skips the comparison.
+    course_baseline: Callable[[int], Candidate] | None = None
     #: What the time limit left out, in words (the report says the search is incomplete).
     skipped: list[str] = field(default_factory=list)
 
@@ -531,6 +534,42 @@ def _round(
                 f"{p_best.last.label} predicts the held-out data without re-estimating a course "
                 f"there and removes {100 * min(ratio, 1.0):.1f} % of the error this one removes"
             )
+    # a course the plant's physics shapes (a disturbance filtered by the plant, a coefficient
+    # whose effect scales with the temperature rise) must fit the held-out recordings better
+    # than a course of as many knots added to the reading unshaped: that one follows coloured
+    # sensor noise as well as any course can, so a physical course that does no better is not
+    # evidence of physics
+    survived = 0
+    for h in sorted(fitted, key=_key):  # the best first; at most BEAM survivors are tested
+        n_new = h.k_local - current.k_local
+        if not (oks[id(h)] and n_new >= 2 and data.course_baseline is not None):
+            continue
+        if survived >= BEAM:
+            break
+        if data.expired:
+            data.skip(f"no course baseline beside {h.last.label}")
+            continue
+        g = fit_hypothesis(spec, current, data.course_baseline(n_new), data, nominal)
+        h.baseline = {
+            **h.baseline,
+            "course": {
+                "baseline": f"{g.last.form} on {g.last.target} ({n_new} knots per recording)",
+                "delta_ic": g.delta_ic,
+                "validation_after": g.validation_after,
+                "physics_favoured": bool(not g.ok or h.delta_ic < g.delta_ic),
+            },
+        }
+        if g.ok and g.delta_ic <= h.delta_ic:
+            oks[id(h)] = False
+            h.notes.append(
+                f"a course of {n_new} knots per recording added to {g.last.target}'s reading "
+                f"fits the held-out data as well (ΔIC {g.delta_ic:.1f} against "
+                f"{h.delta_ic:.1f}): what this course follows cannot be told from coloured "
+                "noise of the sensor"
+            )
+        else:
+            survived += 1
+    pred = [h for h in fitted if oks[id(h)] and h.k_local == current.k_local]
     # a hypothesis that predicts the held-out data outright is stronger evidence than one
     # whose course had to be re-estimated on them, unless that one is both independent of the
     # inputs and better by the information criterion
