@@ -478,14 +478,15 @@ def _input_nonlinearity(ctx: Context) -> list[Candidate]:
         ur = ctx.u_ref(i)
         lo_u, hi_u = float(np.min(v)), float(np.max(v))
         ev = f"residual depends on the level of {i} (η² up to {level:.2f})"
-        forms = [
+        u_max = max(abs(lo_u), abs(hi_u)) or ur
+        forms: list[tuple[str, str, dict[str, Any], dict[str, tuple[float, float]]]] = [
             ("power", "power law", {}, {f"alpha_{i}": (0.5, 2.0)}),
             ("saturation", "saturation", {}, {f"sat_{i}": (0.2, 3.0)}),
             (
                 "limit",
                 "hard limit",
-                {"u_max": max(abs(lo_u), abs(hi_u)) or ur},
-                {f"lim_{i}": (0.2 * max(abs(lo_u), abs(hi_u)), 0.9 * max(abs(lo_u), abs(hi_u)))},
+                {"u_max": u_max},
+                {f"lim_{i}": (0.2 * u_max, 0.9 * u_max)},
             ),
             (
                 "dead_zone",
