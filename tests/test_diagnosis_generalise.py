@@ -148,6 +148,18 @@ def test_a_constant_offset_is_not_taken_for_a_disturbance_course_it_looks_like(s
     )
     assert rep.named_effects[0] == "sensor_offset"
     assert rep.best["params"]["offset_T"]["value"] == pytest.approx(1.0, abs=0.2)
+    # the look-alike is listed as an alternative the data do not tell apart, with the
+    # experiment that would
+    best = rep.best["delta_ic"]
+    for a in rep.alternatives:
+        assert a["effect"] != "sensor_offset" and a["delta_ic"] <= best + 6.0
+        assert "calibration point" in a["tell_apart"]
+    assert ("## Alternatives the data do not tell apart" in rep.to_markdown()) == bool(
+        rep.alternatives
+    )
+    if seed == 5:
+        assert [a["effect"] for a in rep.alternatives] == ["unmeasured_disturbance"]
+        assert "about as well as 'sensor_offset'" in rep.verdict
 
 
 def test_an_effect_that_barely_changes_the_prediction_is_not_material():

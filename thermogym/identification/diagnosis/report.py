@@ -103,6 +103,9 @@ class DiagnosisReport:
         The parameter-or-physics test: given against re-calibrated parameters.
     baseline : dict
         The plain ARX baseline on the same data.
+    alternatives : list of dict
+        Other effects the held-out data fit about as well as the first named
+        one (ΔIC within 6), with the experiment that would tell them apart.
     complete : bool
         False when the time limit cut the search short (``incomplete`` says
         what was left out; the ranking covers only what was tried).
@@ -138,6 +141,7 @@ class DiagnosisReport:
     nominal_adequate: bool = True
     complete: bool = True
     incomplete: list[str] = field(default_factory=list)
+    alternatives: list[dict[str, Any]] = field(default_factory=list)
     stages: dict[str, float] = field(default_factory=dict)
     selection: list[dict[str, Any]] = field(default_factory=list)
     # arrays kept for figures (not in the JSON)
@@ -216,9 +220,19 @@ class DiagnosisReport:
                 " The evidence does not favour a physical explanation over a generic extra "
                 "state for every effect (see the baselines)."
             )
+        alt = ""
+        if self.alternatives:
+            alt = (
+                " The data fit "
+                + ", ".join(
+                    f"'{a['effect']}' ({a['form']}, {a['target']})" for a in self.alternatives
+                )
+                + f" about as well as '{named[0]}' (see alternatives: the experiment that tells "
+                "them apart)."
+            )
         return lead + (
             f"Significant mismatch (mostly {where}): missing physics {' + '.join(parts)}; "
-            f"held-out mean NRMSE {before:.4f} → {after:.4f}.{extra}{doubt}"
+            f"held-out mean NRMSE {before:.4f} → {after:.4f}.{extra}{doubt}{alt}"
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -240,6 +254,7 @@ class DiagnosisReport:
             "nominal_adequate": self.nominal_adequate,
             "complete": self.complete,
             "incomplete": list(self.incomplete),
+            "alternatives": self.alternatives,
             "baseline": self.baseline,
             "parameters": self.parameters,
             "selection": self.selection,
@@ -400,6 +415,18 @@ class DiagnosisReport:
                 "tried:",
                 "",
                 *[f"* {x}" for x in self.incomplete],
+                "",
+            ]
+        if self.alternatives:
+            parts += [
+                "## Alternatives the data do not tell apart",
+                "",
+                *[
+                    f"* `{a['effect']}` ({a['form']}, {a['target']}): held-out ΔIC "
+                    f"{a['delta_ic']:.1f}, {100 * a['explained']:.0f} % of the systematic error "
+                    f"removed. To tell them apart: {a['tell_apart']}."
+                    for a in self.alternatives
+                ],
                 "",
             ]
         if self.combination:

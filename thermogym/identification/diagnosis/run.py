@@ -1028,6 +1028,7 @@ def _stage_report(st: _Run) -> DiagnosisReport:
                 }
             )
         first = steps[0]
+        report.alternatives = _alternatives(first, sel)
         report.best = {
             "effect": first.last.effect,
             "form": first.last.form,
@@ -1065,6 +1066,51 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     report.seconds = time.perf_counter() - st.t0
     st.say(f"named: {', '.join(named)} ({report.seconds:.1f} s)")
     return report
+
+
+#: Largest held-out ΔIC difference between two hypotheses the data do not tell apart (Kass &
+#: Raftery 1995: below 6 on the BIC scale is weaker than "strong" evidence).
+ALTERNATIVE_DIC = 6.0
+
+
+def _alternatives(first: Hypothesis, sel: Selection) -> list[dict[str, Any]]:
+    """Other effects the first round fitted about as well as the first named one.
+
+    Jointly refitted (not only screened) hypotheses of another effect whose held-out
+    ΔIC is within :data:`ALTERNATIVE_DIC` of the first named one's and that remove
+    at least 90 % of the error it removes: the data do not tell them apart, and
+    the report names the experiment that would.
+    """
+    out: list[dict[str, Any]] = []
+    if first.last is None or not math.isfinite(first.delta_ic):
+        return out
+    seen = {first.last.effect}
+    for h in sel.first_round:
+        c = h.last
+        if c is None or h.screened or not h.ok or c.effect in seen:
+            continue
+        if not math.isfinite(h.delta_ic) or h.delta_ic > first.delta_ic + ALTERNATIVE_DIC:
+            continue
+        if first.explained > 0 and h.explained < 0.9 * first.explained:
+            continue
+        seen.add(c.effect)
+        entry = CATALOGUE.get(c.effect)
+        out.append(
+            {
+                "effect": c.effect,
+                "form": c.form,
+                "target": c.target,
+                "delta_ic": h.delta_ic,
+                "explained": h.explained,
+                "tell_apart": (
+                    f"{entry.experiment('')} (for {c.effect}); "
+                    f"{CATALOGUE[first.last.effect].experiment('')} (for {first.last.effect})"
+                    if entry is not None and first.last.effect in CATALOGUE
+                    else ""
+                ),
+            }
+        )
+    return out
 
 
 def _finalise(report: DiagnosisReport, final: Hypothesis, st: _Run, data: list) -> None:
