@@ -208,7 +208,9 @@ def diagnose(
         Try a sparse regression of the residual's dynamics when nothing in
         the catalogue explains a mismatch.
     time_limit : float, optional
-        Seconds after which no further hypothesis is started.
+        Seconds the whole run may take: fits stop early enough (a margin of
+        10 % of it, at most 5 s) for the report to be finished within it, and
+        the report says what was left out (``complete``, ``incomplete``).
     progress : callable, optional
         Called with a line of text at each stage.
     min_explained : float, optional
@@ -400,6 +402,17 @@ def _beyond_training(names: Sequence[str], tr: Sequence[Any], va: Sequence[Any])
     return out
 
 
+def _deadline(st: _Run) -> float | None:
+    """When fitting stops: the time limit less a margin for the stages that finish the report.
+
+    The margin is 10 % of the limit, at most 5 s: the limit bounds the whole run.
+    """
+    limit = st.opts["time_limit"]
+    if limit is None:
+        return None
+    return st.t0 + limit - min(5.0, 0.1 * limit)
+
+
 def _constant(u: NDArray[np.float64]) -> bool:
     """Whether every column of ``u`` (T, n) holds one value (NaN samples ignored)."""
     if u.size == 0:
@@ -467,7 +480,7 @@ def _stage_nominal(st: _Run) -> None:
     st.say(f"re-calibrating {len(sel)} identifiable parameter(s) of {len(cands)}: {sel}")
     sel_lo = np.array([st.bounds[p][0] for p in sel])
     sel_hi = np.array([st.bounds[p][1] for p in sel])
-    deadline = None if o["time_limit"] is None else st.t0 + o["time_limit"]
+    deadline = _deadline(st)
     out = calibrate(
         model,
         given,
@@ -613,7 +626,7 @@ def _stage_detection(st: _Run) -> None:
         use = "crossfit" if (st.detected and not st.train_material and len(st.va) >= 2) else "split"
     if use == "crossfit" and len(st.va) < 2:
         raise ConfigError("scheme 'crossfit' needs at least two validation recordings")
-    deadline = None if o["time_limit"] is None else st.t0 + o["time_limit"]
+    deadline = _deadline(st)
     st.data = Data(
         st.tr, st.va, st.weights, st.x0, o["alpha"], use, o["max_nfev"], deadline, st.say
     )
@@ -973,7 +986,7 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     if st.data is not None and st.data.skipped:
         report.complete = False
         report.incomplete = [
-            f"time limit of {o['time_limit']:g} s reached: " + st.data.skipped[0],
+            f"time limit of {o['time_limit']:g} s: " + st.data.skipped[0],
             *st.data.skipped[1:],
         ]
     report.parameters = par
