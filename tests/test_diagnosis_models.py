@@ -64,6 +64,9 @@ _SPECS = [
     ),
     ("missing_dynamics", "y2", {"form": "extra_node", "port": "Ta"}),
     ("phase_change", "y", {"form": "latent_heat", "port": "u", "T_melt": 21.0}),
+    # a hard limit of the input; a course added to the reading (the diagnosis' course baseline)
+    ("input_nonlinearity", "u", {"form": "limit", "u_max": 1.5}),
+    ("sensor_drift", "y2", {"form": "wander", "span": 400.0, "segments": 3}),
 ]
 #: legacy static maps read the current input, which a sensor lag of the next sample cannot
 #: know when stepping: they are left out of the combination (each is checked alone)
@@ -110,6 +113,9 @@ _VALUES = {
     "xn_tau_y2": 60.0,
     "pc_kappa_y": 30.0,
     "pc_w_y": 0.5,
+    "lim_u": 1.1,
+    "wander_k1_y2": 0.4,
+    "wander_k3_y2": -0.2,
 }
 
 

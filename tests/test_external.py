@@ -215,6 +215,18 @@ def _write(path: Path, text: str) -> Path:
     return path
 
 
+def _heater() -> dict:
+    """The lag plant as a co-simulation member (the Python callable of tests/data/external)."""
+    return {
+        "type": "callable",
+        "path": str(DATA / "lag_func.py"),
+        "function": "lag",
+        "parameters": dict(PARAMS),
+        "inputs": {"u": "P_heater"},
+        "outputs": {"y": "T_h"},
+    }
+
+
 LAG_TOML = f"""
 type = "script"
 name = "lag"
@@ -629,14 +641,7 @@ def test_cosim_from_config_with_a_model_file(tmp_path, lag_data):
         "type": "cosim",
         "name": "heater_wall",
         "models": {
-            "heater": {
-                "type": "callable",
-                "path": str(DATA / "lag_func.py"),
-                "function": "lag",
-                "parameters": PARAMS,
-                "inputs": {"u": "P_heater"},
-                "outputs": {"y": "T_h"},
-            },
+            "heater": _heater(),
             "wall": "wall.toml",
         },
         "connections": [{"from": "heater.T_h", "to": "wall.T_h_in"}],
@@ -733,14 +738,7 @@ def test_check_command_refuses_a_cosimulation_by_name(tmp_path, lag_data, capsys
     cfg = {
         "type": "cosim",
         "models": {
-            "heater": {
-                "type": "callable",
-                "path": str(DATA / "lag_func.py"),
-                "function": "lag",
-                "parameters": PARAMS,
-                "inputs": {"u": "P_heater"},
-                "outputs": {"y": "T_h"},
-            },
+            "heater": _heater(),
         },
         "evaluation": {"backend": "serial"},
     }

@@ -82,10 +82,12 @@ def test_suite_modules_do_not_import_the_diagnosis_or_the_augmentations():
 
 
 def test_importing_the_suite_loads_neither_module():
+    # the runners too: they reach the diagnosis only when a case is scored (run_case)
     code = (
         "import sys; sys.path.insert(0, {!r})\n"
         "import benchmarks.diagnosis.cases, benchmarks.diagnosis.rigcases, "
-        "benchmarks.diagnosis.nominal\n"
+        "benchmarks.diagnosis.nominal, benchmarks.diagnosis.generalisation, "
+        "benchmarks.diagnosis.detection_limits\n"
         "print([m for m in sys.modules if m.startswith({!r}) or m.startswith({!r})])"
     ).format(str(ROOT), *FORBIDDEN)
     out = subprocess.run(

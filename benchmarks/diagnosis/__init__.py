@@ -3,7 +3,10 @@
 Plants, effects and cases are written here from textbook heat transfer and the
 papers, independently of the diagnosis and of ``thermogym.models.augmented``
 (``tests/test_generalisation_suite.py`` checks the imports). Only the runner,
-``generalisation.py``, calls the public :func:`thermogym.identification.diagnosis.diagnose`.
+``generalisation.py``, calls the public :func:`thermogym.identification.diagnosis.diagnose`
+(inside :func:`~benchmarks.diagnosis.generalisation.run_case`); ``detection_limits.py``
+makes its cases with ``cases.py`` like every other case and scores them through
+``run_case``: it imports neither the diagnosis nor the augmentations.
 
 Modules
 -------
@@ -20,4 +23,8 @@ cases
     The case list, the recordings of a case and its ground truth.
 generalisation
     The runner (``--json PATH``).
+detection_limits
+    Effect ladders and controls on the plate, scored by ``run_case`` (item 7).
+_onecore
+    One thread per case, set before numpy loads (both runners).
 """

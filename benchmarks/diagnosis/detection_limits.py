@@ -18,22 +18,10 @@ magnitude).
 
 from __future__ import annotations
 
-import os
-
-if __name__ in ("__main__", "__mp_main__"):
-    for _v in (
-        "OMP_NUM_THREADS",
-        "OPENBLAS_NUM_THREADS",
-        "MKL_NUM_THREADS",
-        "VECLIB_MAXIMUM_THREADS",
-        "NUMEXPR_NUM_THREADS",
-        "NUMBA_NUM_THREADS",
-    ):
-        os.environ[_v] = "1"
-
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from collections.abc import Mapping, Sequence
@@ -45,6 +33,12 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+
+if __name__ in ("__main__", "__mp_main__"):  # before numpy, scipy or numba load
+    from benchmarks.diagnosis._onecore import one_core
+
+    one_core()
+
 
 from benchmarks.diagnosis.cases import Case, control, h  # noqa: E402
 from benchmarks.diagnosis.generalisation import NO_PHYSICS, run_case  # noqa: E402
@@ -133,7 +127,7 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
                     "flagged": sum(r["flagged"] for r in rs),
                 }
             )
-        ok = [p["magnitude"] for p in per if p["n"] and p["named"] >= SHARE * p["n"]]
+        met = [bool(p["n"]) and p["named"] >= SHARE * p["n"] for p in per]
         eff[eff_name] = {
             # controls that name this effect: the rate a "named" count is to be read against
             "controls_naming": sum(eff_name in r["named_effects"] for r in ctl),
@@ -142,16 +136,7 @@ def summary(rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
             "unit": unit,
             "ladder": per,
             # the smallest magnitude from which every larger one is named too
-            "limit": next(
-                (
-                    p["magnitude"]
-                    for k, p in enumerate(per)
-                    if all(q["n"] and q["named"] >= SHARE * q["n"] for q in per[k:])
-                ),
-                None,
-            )
-            if ok
-            else None,
+            "limit": next((p["magnitude"] for k, p in enumerate(per) if all(met[k:])), None),
         }
     return {
         "effects": eff,

@@ -38,25 +38,10 @@ Writes ``PATH`` (``{"figures": ..., "cases": [...]}``), and beside it
 
 from __future__ import annotations
 
-import os
-
-# one core per case: set before numpy, scipy or numba are imported, when run as the script
-# (or as a worker process spawned by it; workers inherit the variables too). Imported as a
-# module (the tests) it leaves the process alone: numba refuses a thread count changed late.
-if __name__ in ("__main__", "__mp_main__"):
-    for _v in (
-        "OMP_NUM_THREADS",
-        "OPENBLAS_NUM_THREADS",
-        "MKL_NUM_THREADS",
-        "VECLIB_MAXIMUM_THREADS",
-        "NUMEXPR_NUM_THREADS",
-        "NUMBA_NUM_THREADS",
-    ):
-        os.environ[_v] = "1"
-
 import argparse
 import json
 import math
+import os
 import platform
 import statistics
 import sys
@@ -71,6 +56,12 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
+
+if __name__ in ("__main__", "__mp_main__"):  # before numpy, scipy or numba load
+    from benchmarks.diagnosis._onecore import one_core
+
+    one_core()
+
 
 from benchmarks.diagnosis.cases import Case, build, select  # noqa: E402
 from thermogym.vocabulary import EFFECT_NAMES, PHYSICS_EFFECTS  # noqa: E402

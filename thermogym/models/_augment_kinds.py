@@ -372,7 +372,29 @@ class _CourseMixin:
         return f"{kind} over {self.segments} intervals of {self.span / self.segments:.4g} s"
 
 
-class _DisturbanceForm(_Aug, _CourseMixin):
+class _AddsCourse:
+    """Adds ``self._value(t, p)``, a per-recording course in time, to the augmented column.
+
+    The state is the time since the recording's start.
+    """
+
+    col: int
+
+    def _value(self, t, p):  # the course at times t (B, T) since the start
+        raise NotImplementedError
+
+    def apply(self, arr, u, p, s0, dt):
+        t = s0[:, 0:1] + dt * np.arange(arr.shape[1])[None, :]
+        arr[:, :, self.col] += self._value(t, p)
+
+    def now(self, v, u, p, s, dt):
+        return v + self._value(s[:, 0:1], p)[:, 0]
+
+    def advance(self, v, u, p, s, dt, v_next=None):
+        return s + dt
+
+
+class _DisturbanceForm(_AddsCourse, _Aug, _CourseMixin):
     """An unmeasured disturbance added to a port, per recording: periodic, steps or smooth."""
 
     effect = "unmeasured_disturbance"
@@ -417,16 +439,6 @@ class _DisturbanceForm(_Aug, _CourseMixin):
             w = 2.0 * np.pi * t / p[:, 0:1]
             return p[:, 1:2] * np.sin(w) + p[:, 2:3] * np.cos(w)
         return _course(p, t, self.span, self.smooth)
-
-    def apply(self, arr, u, p, s0, dt):
-        t = s0[:, 0:1] + dt * np.arange(arr.shape[1])[None, :]
-        arr[:, :, self.col] += self._value(t, p)
-
-    def now(self, v, u, p, s, dt):
-        return v + self._value(s[:, 0:1], p)[:, 0]
-
-    def advance(self, v, u, p, s, dt, v_next=None):
-        return s + dt
 
 
 class _Supply(_Aug, _CourseMixin):
@@ -1438,7 +1450,7 @@ class _Offset(_Aug):
         return v + p[:, 0]
 
 
-class _SensorWander(_Aug, _CourseMixin):
+class _SensorWander(_AddsCourse, _Aug, _CourseMixin):
     """The sensor's reading wanders, per recording: a course added to the output.
 
     Piecewise linear (``smooth``, the default) or constant over ``segments``
@@ -1469,17 +1481,10 @@ class _SensorWander(_Aug, _CourseMixin):
         return f"wander of the reading, {self.knots_doc()}"
 
     def course(self, p, t):
+        return self._value(t, p)
+
+    def _value(self, t, p):
         return _course(p, t, self.span, self.smooth)
-
-    def apply(self, arr, u, p, s0, dt):
-        t = s0[:, 0:1] + dt * np.arange(arr.shape[1])[None, :]
-        arr[:, :, self.col] += _course(p, t, self.span, self.smooth)
-
-    def now(self, v, u, p, s, dt):
-        return v + _course(p, s[:, 0:1], self.span, self.smooth)[:, 0]
-
-    def advance(self, v, u, p, s, dt, v_next=None):
-        return s + dt
 
 
 class _SensorDrift(_Aug):
