@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from _model_plants import with_hidden_node
@@ -10,7 +12,7 @@ import thermogym.identification.diagnosis  # noqa: F401  (registers the "augment
 from thermogym.errors import ConfigError, SimulationError
 from thermogym.fitresult import FitResult
 from thermogym.models.augmented import AugmentedModel
-from thermogym.models.fastnet import LossNetwork, fast_or_none
+from thermogym.models.fastnet import SwitchedNetwork, fast_or_none
 from thermogym.models.linear import FOPTDModel
 from thermogym.models.registry import get_model
 from thermogym.rigs import get_rig, run_experiment
@@ -263,8 +265,6 @@ def test_bad_augmentations_are_refused_by_name():
         ("spindle", "input_dependent_heat_transfer", {"beta_u": 1.5}, 8000.0, 120.0),
         ("spindle", "input_nonlinearity", {"alpha_u": 1.6}, 8000.0, 120.0),
         ("strut", "input_dependent_heat_transfer", {"beta_u": 2.0}, 30.0, 158.3),
-        ("spindle", "nonlinear_heat_transfer", {"gamma_nl": 0.8}, 8000.0, 120.0),
-        ("strut", "nonlinear_heat_transfer", {"gamma_nl": 1.5}, 30.0, 158.3),
     ],
 )
 def test_switched_network_matches_the_plants_own_rk4(plant, effect, values, u_on, dt):
@@ -312,14 +312,30 @@ def test_sensor_lag_of_the_rig_starts_in_equilibrium():
     np.testing.assert_allclose(y, 25.0)
 
 
-def test_loss_network_needs_fewer_substeps_than_the_plants_bound():
-    # the plant bounds the stiffness for forced convection at the largest speed even when
-    # only the loss nonlinearity is on; LossNetwork bounds it by γ (and stays stable)
+def test_network_substeps_follow_the_effects_switched_on():
+    # the sub-step rule bounds the stiffness the effects can add: forced convection by
+    # 1 + β u_max/u_ref, the loss nonlinearity by its slope (≤ 4/3 (ΔT_span/ΔT_ref)^(1/3))
     m = get_model("spindle", effects=["nonlinear_heat_transfer"])
-    th = m.theta({"gamma_nl": 0.0})
-    net = m.network(m.full_theta(th))
-    fast = LossNetwork(m)
-    assert fast.substeps(th, 120.0) < m.rk4_substeps(net, 120.0, 8000.0)
-    assert fast.substeps(m.theta({"gamma_nl": 1.0}), 120.0) > fast.substeps(th, 120.0)
+    full = m.full_theta(m.theta({}))
+    net, eff = m.network(full), m.effect_values(full)
+    base = m.rk4_substeps(net, 120.0, 8000.0, eff)
+    assert base < m.rk4_substeps(net, 120.0, 8000.0)  # β = 0: no forced-convection margin
+    big = eff.copy()
+    big[:, 2] = 5.0
+    n5 = m.rk4_substeps(net, 120.0, 8000.0, big)
+    assert base < n5 <= math.ceil(base * 4.0 / 3.0 * 6.0 ** (1.0 / 3.0)) + 1
+    # the count it picks is accurate: four times finer steps change the output < 1 mK
+    th = m.theta({"gamma_nl": 5.0}, batch=1)
+    T = 240
+    u = np.column_stack([np.repeat([0.0, 8000.0, 3000.0], T // 3), np.full(T, 21.0)])[None]
+    x0 = np.full((1, len(m.nodes)), 21.0)
+    full = m.full_theta(th)
+    n = m.rk4_substeps(m.network(full), 120.0, 8000.0, m.effect_values(full))
+    y, _ = m.simulate_network(th, u, 120.0, x0)
+    y_fine, _ = m.simulate_network(th, u, 120.0, x0, substeps=4 * n)
+    assert float(np.ptp(y)) > 5.0  # the run heats the spindle
+    np.testing.assert_allclose(y, y_fine, atol=1e-3)
+    # the loss nonlinearity is not linear in the state: no switched-LTI fast path
+    assert fast_or_none(m) is None
     with pytest.raises(ConfigError, match="nonlinear_heat_transfer"):
-        LossNetwork(get_model("spindle", effects=["input_nonlinearity"]))
+        SwitchedNetwork(m)

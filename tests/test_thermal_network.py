@@ -59,8 +59,12 @@ def test_exact_and_rk4_agree(cls):
     x0 = np.full((2, len(m.nodes)), 20.0)
     y_exact, _ = m.simulate_network(th, u[None].repeat(2, 0), dt, x0)
     y_rk4, _ = m.simulate_network(th, u[None].repeat(2, 0), dt, x0, force_rk4=True)
-    # RK4 treats T_air as held over each sample like the exact ZOH solution
-    np.testing.assert_allclose(y_rk4, y_exact, atol=1e-6)
+    # the default sub-step rule (h ρ ≤ 1) is accurate to well under a millikelvin ...
+    np.testing.assert_allclose(y_rk4, y_exact, atol=1e-3)
+    n = m.rk4_substeps(m.network(m.full_theta(th)), dt, float(u[:, 0].max()))
+    fine, _ = m.simulate_network(th, u[None].repeat(2, 0), dt, x0, force_rk4=True, substeps=8 * n)
+    # ... and RK4 converges on the exact solution (T_air held over each sample like ZOH)
+    np.testing.assert_allclose(fine, y_exact, atol=1e-6)
 
 
 @pytest.mark.parametrize("cls", MODELS)
@@ -165,13 +169,14 @@ def test_simulate_network_takes_an_explicit_substep_count():
     T, dt = 120, 120.0
     u = np.column_stack([np.repeat([0.0, 6000.0, 3000.0], T // 3), np.full(T, 21.0)])[None]
     x0 = np.full((1, len(m.nodes)), 21.0)
-    n = m.rk4_substeps(m.network(m.full_theta(th)), dt, 6000.0)
+    full = m.full_theta(th)
+    n = m.rk4_substeps(m.network(full), dt, 6000.0, m.effect_values(full))
     y_default, _ = m.simulate_network(th, u, dt, x0)
     y_same, _ = m.simulate_network(th, u, dt, x0, substeps=n)
     np.testing.assert_array_equal(y_same, y_default)  # the default is that count
     y_fine, _ = m.simulate_network(th, u, dt, x0, substeps=4 * n)
     assert not np.array_equal(y_fine, y_default)  # the count is used ...
-    np.testing.assert_allclose(y_fine, y_default, atol=1e-4)  # ... and RK4 has converged
+    np.testing.assert_allclose(y_fine, y_default, atol=1e-3)  # ... and RK4 has converged
     for bad in (0, 1.5):
         with pytest.raises(ConfigError, match=f"substeps is {bad!r}"):
             m.simulate_network(th, u, dt, x0, substeps=bad)

@@ -23,7 +23,6 @@ switched on (same parameters, same equations).
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numba as nb
@@ -42,7 +41,7 @@ from thermogym.models.thermal_network import (
     network_matrices,
 )
 
-__all__ = ["FAST_EFFECTS", "LossNetwork", "SwitchedNetwork", "fast_or_none", "switched_or_none"]
+__all__ = ["FAST_EFFECTS", "SwitchedNetwork", "fast_or_none", "switched_or_none"]
 
 #: Effects :class:`SwitchedNetwork` simulates exactly.
 FAST_EFFECTS = ("input_nonlinearity", "input_dependent_heat_transfer", "time_varying_parameter")
@@ -175,61 +174,6 @@ class SwitchedNetwork(Model):
         return y, None
 
 
-#: Largest temperature rise above the air [K] the sub-step rule of :class:`LossNetwork` covers.
-_DT_SPAN = 60.0
-
-
-class LossNetwork(SwitchedNetwork):
-    """A network plant with ``nonlinear_heat_transfer`` only, on the plant's own RK4 kernel.
-
-    The loss ``g Δ (1 + γ (|Δ|/ΔT_ref)^(1/3)) / (1 + γ)`` of each node to the
-    air (the plant's ``_rhs``) depends on the state, so the network is
-    integrated by the plant's fixed-step RK4 kernel (same equations, same
-    code). Only the number of sub-steps differs: the plant bounds the spectral
-    radius for *forced convection* at the largest input (``1 + 5 u_max/u_ref``,
-    six times the sub-steps on a spindle at 8000 rpm) even when no forced
-    convection is switched on, while the loss nonlinearity raises the local
-    stiffness only by ``(1 + 4/3 γ (|Δ|/ΔT_ref)^(1/3)) / (1 + γ)``. Sub-steps
-    here keep ``h ρ (1 + 2 γ⁺ ΔT_span/ΔT_ref) ≤ 1`` with ``ΔT_span`` = 60 K, a
-    bound with wide margin over that factor (and RK4 is stable up to
-    ``h|λ|`` = 2.78).
-
-    Parameters
-    ----------
-    plant : ThermalNetworkModel
-        The plant built with ``effects=["nonlinear_heat_transfer"]``.
-    """
-
-    def __init__(self, plant: ThermalNetworkModel) -> None:
-        if not isinstance(plant, ThermalNetworkModel):
-            raise ConfigError(f"{plant.name!r} is not a thermal network")
-        if tuple(plant.effects) != ("nonlinear_heat_transfer",):
-            raise ConfigError(
-                f"LossNetwork takes a plant with effects ['nonlinear_heat_transfer'] only; "
-                f"got {list(plant.effects)}"
-            )
-        self.plant = plant
-        self.name = plant.name
-        self.version = plant.version
-        self.max_step = plant.max_step
-        Model.__init__(self, plant.signals, plant.parameters, plant.state_names)
-
-    def substeps(self, theta: NDArray[np.float64], dt: float) -> int:
-        """RK4 sub-steps per sample [-] for the parameter sets ``theta`` (B, P)."""
-        p = self.plant
-        full = p.full_theta(theta)
-        A, _ = network_matrices(p.network(full))
-        rho = max(float(np.max(np.abs(np.linalg.eigvals(a)))) for a in A)
-        gam = max(float(np.max(p.effect_values(full)[:, 2])), 0.0)
-        return max(1, math.ceil(dt * rho * (1.0 + 2.0 * gam * _DT_SPAN / p.dT_ref)))
-
-    def _simulate(self, theta, u, dt, x0, return_states):
-        p = self.plant
-        # γ = 0: the plant's exact discretisation; otherwise its RK4 with these sub-steps
-        nsub = None if p.is_linear(p.full_theta(theta)) else self.substeps(theta, dt)
-        return p.simulate_network(theta, u, dt, x0, return_states=return_states, substeps=nsub)
-
-
 def switched_or_none(model: Model) -> Model | None:
     """A :class:`SwitchedNetwork` for a network plant whose effects allow it, else None."""
     if isinstance(model, ThermalNetworkModel) and all(e in FAST_EFFECTS for e in model.effects):
@@ -240,15 +184,12 @@ def switched_or_none(model: Model) -> Model | None:
 def fast_or_none(model: Model) -> Model | None:
     """The fastest faithful simulator of a network plant for fitting, else None.
 
-    :class:`SwitchedNetwork` (exact) for the effects linear in the state,
-    :class:`LossNetwork` (the plant's RK4 with a tighter sub-step rule) for
-    ``nonlinear_heat_transfer``.
+    :class:`SwitchedNetwork` (exact) for the effects linear in the state; a plant
+    with ``nonlinear_heat_transfer`` is fitted on its own RK4 kernel, whose sub-step
+    rule bounds the loss nonlinearity's stiffness by γ
+    (:meth:`~thermogym.models.thermal_network.ThermalNetworkModel.rk4_substeps`).
     """
-    fast = switched_or_none(model)
-    if fast is None and isinstance(model, ThermalNetworkModel):
-        if tuple(model.effects) == ("nonlinear_heat_transfer",):
-            return LossNetwork(model)
-    return fast
+    return switched_or_none(model)
 
 
 class ExtraNodeNetwork(Model):

@@ -125,6 +125,9 @@ NETWORK_EFFECTS: dict[str, PhysicalEffect] = {
     ),
 }
 _NE = 4  # number of effect parameters, kernel order: alpha, beta, gamma, drift
+#: Largest node-to-air temperature difference [K] the RK4 sub-step rule bounds the loss
+#: nonlinearity's stiffness for (:meth:`ThermalNetworkModel.rk4_substeps`).
+DT_SPAN = 60.0
 
 
 @dataclass(frozen=True)
@@ -530,15 +533,53 @@ class ThermalNetworkModel(Model):
         # Rest: every node at the air temperature (the last exogenous column).
         return np.repeat(u0[:, -1:], len(self.nodes), axis=1).astype(float)
 
-    def rk4_substeps(self, net: NetworkArrays, dt: float, u_max: float = 0.0) -> int:
-        """Fixed RK4 sub-steps per sample from the fastest eigenvalue (stability + accuracy)."""
+    def rk4_substeps(
+        self,
+        net: NetworkArrays,
+        dt: float,
+        u_max: float = 0.0,
+        eff: NDArray[np.float64] | None = None,
+    ) -> int:
+        """Fixed RK4 sub-steps per sample from the fastest eigenvalue (stability + accuracy).
+
+        The step keeps ``h ρ ≤ 1`` (RK4 is stable up to ``h|λ|`` = 2.78 on the negative
+        real axis), with ``ρ`` the spectral radius of the linear network times the largest
+        factor by which the effects can raise the local stiffness:
+
+        * forced convection multiplies the moving nodes' air conductance by
+          ``1 + β |u|/u_ref``;
+        * the loss ``g Δ (1 + γ (|Δ|/ΔT_ref)^(1/3)) / (1 + γ)`` has the slope
+          ``g (1 + 4/3 γ (|Δ|/ΔT_ref)^(1/3)) / (1 + γ)``, bounded here for
+          ``|Δ| ≤`` :data:`DT_SPAN` (at most ``4/3 (ΔT_span/ΔT_ref)^(1/3)`` ≈ 2.4 for
+          any γ; beyond that span the factor grows only as the cube root).
+
+        Parameters
+        ----------
+        net : NetworkArrays
+        dt : float
+            Sample period [s].
+        u_max : float
+            Largest input magnitude of the run.
+        eff : ndarray, shape (B, 4), optional
+            :meth:`effect_values`; without it the bound takes β at its upper bound (5)
+            and no loss nonlinearity (the rule the vector environments step with).
+
+        Returns
+        -------
+        int
+        """
         A, _ = network_matrices(net)
-        A = A.copy()
-        # forced convection can raise the air conductances: bound the spectral radius
-        scale = 1.0 + max(0.0, 5.0 * u_max / self.u_ref)
-        rho = max(float(np.max(np.abs(np.linalg.eigvals(a)))) for a in A) * scale
-        # RK4 is stable for h·|λ| < 2.78 on the negative real axis; keep h·ρ <= 1 for accuracy
-        return max(1, math.ceil(dt * rho))
+        rho = max(float(np.max(np.abs(np.linalg.eigvals(a)))) for a in A)
+        if eff is None:
+            beta, loss = 5.0, 1.0
+        else:
+            e = np.atleast_2d(np.asarray(eff, dtype=float))
+            beta = max(0.0, float(np.max(e[:, 1])))
+            gam = np.maximum(e[:, 2], 0.0)
+            s = (DT_SPAN / self.dT_ref) ** (1.0 / 3.0)
+            loss = max(1.0, float(np.max((1.0 + 4.0 / 3.0 * gam * s) / (1.0 + gam))))
+        scale = (1.0 + beta * max(0.0, u_max) / self.u_ref) * loss
+        return max(1, math.ceil(dt * rho * scale))
 
     def simulate_network(
         self,
@@ -583,7 +624,8 @@ class ThermalNetworkModel(Model):
             Ad, Bd, net = self.discrete(theta, dt)
             return lti_simulate(Ad, Bd, net.H, net.h0, x0, u, return_states)
         if substeps is None:
-            nsub = self.rk4_substeps(net, dt, float(np.max(np.abs(u[:, :, 0]))))
+            u_max = float(np.max(np.abs(u[:, :, 0])))
+            nsub = self.rk4_substeps(net, dt, u_max, self.effect_values(full))
         elif isinstance(substeps, int | np.integer) and substeps >= 1:
             nsub = int(substeps)
         else:
