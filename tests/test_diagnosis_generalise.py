@@ -48,6 +48,11 @@ def test_sensor_wander_as_large_as_the_white_noise_is_not_named_as_physics(seed)
     # below twice the white level these seeds named a disturbance or a supply wander
     rep = _run({}, seed=seed)
     assert set(rep.named_effects) <= {"none", "parameter_error"}, rep.verdict
+    # nor is the model called inadequate unless a plain ARX predicts materially better
+    b = rep.baseline
+    assert rep.nominal_adequate == (
+        b["validation"]["mean"] <= b["nominal_validation"]["mean"] + 0.01
+    )
 
 
 def test_delay_and_lag_are_told_apart():
@@ -64,6 +69,24 @@ def test_delay_and_lag_are_told_apart():
     g = {(h["effect"], h["target"]): h["delta_ic"] for h in lag.hypotheses}
     assert d[("transport_delay", "u")] < d[("sensor_lag", "T")]
     assert g[("sensor_lag", "T")] < g[("transport_delay", "u")]
+
+
+@pytest.mark.parametrize(
+    ("effects", "names"),
+    [
+        ({"delay": 60.0, "offset": 1.5}, {"transport_delay", "sensor_offset"}),
+        ({"power": 1.5, "lag": 60.0}, {"input_nonlinearity", "sensor_lag"}),
+    ],
+)
+def test_a_two_effect_case_reports_both_largest_share_first(effects, names):
+    which = ["transport_delay", "sensor_offset", "sensor_lag", "input_nonlinearity", "sensor_drift"]
+    rep = _run(effects, seed=1, candidates=which)
+    assert names <= set(rep.named_effects)
+    shares = [c["share_of_explained_error"] for c in rep.combination]
+    assert all(0 < x <= 1 for x in shares) and sum(shares) == pytest.approx(1.0)
+    assert shares == sorted(shares, reverse=True)  # the effect that removes most comes first
+    assert rep.named_effects[0] == rep.combination[0]["effect"] == rep.best["effect"]
+    assert rep.best["validation_after"]["mean"] > rep.best["validation_before"]["mean"]
 
 
 @pytest.mark.xfail(

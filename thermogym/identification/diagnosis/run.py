@@ -946,9 +946,15 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     alpha_adj = st.tests["alpha_adj"]
     sel = st.selection or Selection()
     steps = sel.steps
+    # the combination is reported largest share first: the effect that removes most of the
+    # held-out error is named first, whichever round kept it
+    sh = shares(h, steps) if steps else []
+    order = sorted(
+        range(len(steps)), key=lambda i: -(sh[i] if math.isfinite(sh[i]) else -math.inf)
+    )
     physics = []
-    for s in steps:
-        e = s.last.effect
+    for i in order:
+        e = steps[i].last.effect
         if e in EFFECT_NAMES and e not in physics:
             physics.append(e)
     par = st.parameters
@@ -1021,8 +1027,7 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     report.combination = []
     if steps:
         final = steps[-1]
-        sh = shares(h, steps)
-        for s, share in zip(steps, sh, strict=True):
+        for s, share in ((steps[i], sh[i]) for i in order):
             c = s.last
             report.combination.append(
                 {
@@ -1047,22 +1052,23 @@ def _stage_report(st: _Run) -> DiagnosisReport:
                 }
             )
         first = steps[0]
+        top = steps[order[0]]
         report.alternatives = _alternatives(first, sel)
         report.best = {
-            "effect": first.last.effect,
-            "form": first.last.form,
-            "target": first.last.target,
-            "explanation": CATALOGUE[first.last.effect].explanation
-            if first.last.effect in CATALOGUE
+            "effect": top.last.effect,
+            "form": top.last.form,
+            "target": top.last.target,
+            "explanation": CATALOGUE[top.last.effect].explanation
+            if top.last.effect in CATALOGUE
             else "",
-            "evidence": first.last.evidence,
+            "evidence": top.last.evidence,
             "params": final.params_table([p for p in final.extra]),
             "fit_before": fit_before_tr,
             "fit_after": final.fit_after,
             "validation_before": fit_before_va,
             "validation_after": final.validation_after,
             "explained": final.explained,
-            "delta_ic": first.delta_ic,
+            "delta_ic": top.delta_ic,
             "named_effects": named,
             "notes": [n for s in steps for n in s.notes],
         }
