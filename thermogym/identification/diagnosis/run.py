@@ -949,9 +949,7 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     # the combination is reported largest share first: the effect that removes most of the
     # held-out error is named first, whichever round kept it
     sh = shares(h, steps) if steps else []
-    order = sorted(
-        range(len(steps)), key=lambda i: -(sh[i] if math.isfinite(sh[i]) else -math.inf)
-    )
+    order = sorted(range(len(steps)), key=lambda i: -(sh[i] if math.isfinite(sh[i]) else -math.inf))
     physics = []
     for i in order:
         e = steps[i].last.effect
