@@ -84,7 +84,7 @@ def test_auto_chooses_only_families_whose_gains_agree_with_the_physics():
 
 
 def test_spectral_radius_and_kfold_blocks():
-    from thermogym.identification.pem import _problem
+    from thermogym.identification._pem_fit import _problem
     from thermogym.identification.ssest import _complement_folds, _spectral_radius
     from thermogym.models.linear import StateSpaceModel
 

@@ -140,5 +140,5 @@ def test_the_models_kernels_depend_on_what_they_inline():
     # equations, the turning-point tracker of the KPIs
     step = axt211_room._step_kernels(0, False).step
     env = {Path(f).name for f in kernel_sources(step)}
-    assert {"axt211_room.py", "_kernels.py", "kpis.py", "room_dynamics.py"} <= env
+    assert {"_room_kernels.py", "_kernels.py", "kpis.py", "room_dynamics.py"} <= env
     assert not any("site-packages" in f for f in kernel_sources(room._step_kernel))

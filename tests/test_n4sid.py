@@ -8,10 +8,10 @@ import pytest
 from thermogym.cli import main as cli_main
 from thermogym.errors import ConfigError, IdentificationError, RecordingError
 from thermogym.fitresult import FitResult
+from thermogym.identification._n4sid_system import _mirror_schur
 from thermogym.identification.linear_fit import predict_fit
 from thermogym.identification.n4sid import (
     HankelAccumulator,
-    _mirror_schur,
     decimate_data,
     decomposition_from_accumulator,
     n4sid,

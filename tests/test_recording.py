@@ -16,6 +16,7 @@ from thermogym._fileio import atomic_write, atomic_write_many, to_jsonable
 from thermogym.errors import RecordingError, ThermogymError, UnitError, UnknownNameError
 from thermogym.models import AXT211
 from thermogym.recording import Recording, read_recording, sidecar_path, write_recording
+from thermogym.recording import _files as recfiles
 
 # ----------------------------------------------------------------------------- helpers
 
@@ -556,8 +557,8 @@ def test_failure_midway_leaves_files_untouched(tmp_path, monkeypatch, name):
         Path(where).write_text("time,u\n0,")
         raise OSError("disk full")
 
-    monkeypatch.setattr(recmod.pa_csv, "write_csv", half_written)
-    monkeypatch.setattr(recmod.pq, "write_table", half_written)
+    monkeypatch.setattr(recfiles.pa_csv, "write_csv", half_written)
+    monkeypatch.setattr(recfiles.pq, "write_table", half_written)
     for target in (p, tmp_path / f"new_{name}"):
         with pytest.raises(RecordingError, match="disk full"):
             write_recording(make_rec(3), target)

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from thermogym.errors import UnknownNameError
+from thermogym.rigs import _strut_plant as rsp
 from thermogym.rigs import get_rig, run_experiment
 from thermogym.rigs import strut as rs
 from thermogym.rigs.strut import SPREAD, StrutPlant, StrutRig
@@ -67,7 +68,16 @@ def steady(plant, v, Ta=20.0, spec=None, hours=30):
 
 def test_rig_modules_import_nothing_of_the_models():
     root = Path(rs.__file__).parent
-    for name in ("strut.py", "spindle.py", "_convection.py", "_machine.py"):
+    for name in (
+        "strut.py",
+        "_strut_plant.py",
+        "_strut_kernels.py",
+        "spindle.py",
+        "_spindle_plant.py",
+        "_spindle_kernels.py",
+        "_convection.py",
+        "_machine.py",
+    ):
         tree = ast.parse((root / name).read_text())
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom):
@@ -114,12 +124,12 @@ def test_forced_convection_of_the_screw_matches_the_correlations():
     dx = 1.5 / 60
     # behind the nut (0.21 m): the annulus to the bellows in series with the bellows'
     # free convection and radiation (Ø110 mm, ε 0.9, linearised at a 10 K rise)
-    i = rs._NL + 8
+    i = rsp._NL + 8
     cover = math.pi * 0.11 * dx * (churchill_chu(10.0, 0.11) + radiation(30.0, 20.0, 0.9))
     # inside the push tube (1.4 m, beyond the nut's reach): the annulus to the tube; with
     # every other node at the air temperature the segment loses to its two neighbours
     # (k A / dx) and across the annulus
-    k = rs._NL + 56
+    k = rsp._NL + 56
     axial = 2 * 45.0 * math.pi / 4 * 0.04**2 / dx
     C = on.arrays(spec).C[0, k]
     for v in (0.0, 20.0, 30.0):
@@ -157,12 +167,12 @@ def test_copper_loss_follows_the_winding_temperature():
 
 def test_winding_is_its_own_node_behind_the_housing():
     run, spec, U = steady(StrutPlant(), 20.0)
-    q = StrutPlant().heat_flows(run.states[:, -1], U[-1], spec)["source"][0, rs._IX["winding"]]
+    q = StrutPlant().heat_flows(run.states[:, -1], U[-1], spec)["source"][0, rsp._IX["winding"]]
     T_drive = run.output("T_drive")[0, -1]  # the thermocouple has settled on the housing
     assert run.hidden["T_winding"][0, -1] - T_drive == pytest.approx(q / 8.0, rel=1e-6)
     merged = StrutPlant(off=["winding_node"])
     src = merged.heat_flows(run.states[:, -1], U[-1], spec)["source"][0]
-    assert src[rs._IX["winding"]] == 0.0 and src[rs._IX["drive"]] > q
+    assert src[rsp._IX["winding"]] == 0.0 and src[rsp._IX["drive"]] > q
 
 
 def test_heat_partition_and_stroke_averaging_move_heat_where_physics_says():
@@ -200,8 +210,8 @@ def test_screw_profile_is_the_analytic_fin_solution():
     run, spec, U = steady(plant, 20.0)
     x = run.states[0, -1]
     seg = np.arange(5, 15)  # segments covering 0.125-0.375 m
-    theta = x[rs._NL + seg] - 20.0
-    g = plant.heat_flows(run.states[:, -1], U[-1], spec)["g_air"][0, rs._NL + seg]
+    theta = x[rsp._NL + seg] - 20.0
+    g = plant.heat_flows(run.states[:, -1], U[-1], spec)["g_air"][0, rsp._NL + seg]
     dx, A = 1.5 / 60, math.pi / 4 * 0.04**2
     m = math.sqrt(g.mean() / dx / (45.0 * A))
     s = (seg - seg[0]) * dx
@@ -282,10 +292,10 @@ def test_concealed_effect_sizes_from_hand_calculations():
 
     base = flows([])
     # the self-ventilated motor: 3 m/s along its 0.3 m housing at 1000 rpm
-    fan = flows(["input_dependent_heat_transfer"])["g_air"][0, rs._IX["drive"]]
+    fan = flows(["input_dependent_heat_transfer"])["g_air"][0, rsp._IX["drive"]]
     h_nat, h_rad = churchill_chu(10.0, 0.15), radiation(30.0, 20.0, 0.9)
     ratio = (mixed(h_nat, flat_plate(3.0, 0.3)) + h_rad) / (h_nat + h_rad)
-    assert fan / base["g_air"][0, rs._IX["drive"]] == pytest.approx(ratio, rel=1e-9)
+    assert fan / base["g_air"][0, rsp._IX["drive"]] == pytest.approx(ratio, rel=1e-9)
     # Palmgren's viscous friction at 1000 rpm: M0 = 1e-7 f0 (ν n)^(2/3) d_m³ [N mm]
     w = 1000 * 2 * math.pi / 60
     m0 = [1e-7 * f0 * (100 * 1000) ** (2 / 3) * dm**3 for f0, dm in ((4.0, 55.0), (4.0, 40.0))]

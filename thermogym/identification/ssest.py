@@ -31,6 +31,17 @@ from numpy.typing import NDArray
 
 from thermogym._checks import integer
 from thermogym.errors import ConfigError, IdentificationError
+from thermogym.identification._pem_fit import (
+    PEMResult,
+    _advise,
+    _fit_family,
+    _fitresult,
+    _problem,
+    _sub_problem,
+)
+from thermogym.identification._pem_orders import _cv_score, _fold_problems
+from thermogym.identification._pem_solver import _as_ss, _Data, _offset, _solve
+from thermogym.identification._pem_sopdt import _sopdt_fit
 from thermogym.identification.advice import check_fit
 from thermogym.identification.crossval import (
     cross_validate_order,
@@ -38,17 +49,7 @@ from thermogym.identification.crossval import (
     split_recording,
 )
 from thermogym.identification.n4sid import n4sid
-from thermogym.identification.pem import (
-    PEMResult,
-    _advise,
-    _cv_score,
-    _fold_problems,
-    _problem,
-    pem,
-    refine,
-    simulation_fit,
-    sopdt,
-)
+from thermogym.identification.pem import pem, refine, simulation_fit, sopdt
 from thermogym.models.linear import StateSpaceModel
 from thermogym.recording import Recording
 
@@ -258,8 +259,6 @@ def ssest(
     model = fit.build_model()
     assert isinstance(model, StateSpaceModel)
     full = _with_delay(model, d)
-    from thermogym.identification.pem import _fitresult
-
     prob = _problem(recs, inputs, outputs, disturbances, operating_point_mode)
     settings = dict(fit.settings)
     settings.pop("operating_point", None)
@@ -517,8 +516,6 @@ def _kfold_score(blocks: Any, fit_fn: Any, dt: float) -> float:
 
 def _spectral_radius(model: Any, theta: NDArray[np.float64], dt: float) -> float:
     """Largest pole magnitude of a linear model's discrete realisation at ``dt``."""
-    from thermogym.identification.pem import _as_ss
-
     try:
         A = _as_ss(model, np.atleast_2d(theta), dt).matrices().A[0]
     except Exception:  # a model that cannot be realised is not admissible
@@ -530,8 +527,6 @@ def _spectral_radius(model: Any, theta: NDArray[np.float64], dt: float) -> float
 
 def _poly_fold(prob: Any, family: str, orders: Mapping[str, Any], focus: str) -> Any:
     """Fold fitter of a polynomial family with fixed orders."""
-    from thermogym.identification.pem import _fit_family, _sub_problem
-
     o = {k: orders[k] for k in ("na", "nb", "nc", "nd", "nf", "nk")}
     foc = "prediction" if focus == "least squares" else focus
 
@@ -544,7 +539,6 @@ def _poly_fold(prob: Any, family: str, orders: Mapping[str, Any], focus: str) ->
 
 def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
     """Fold fitter of a fixed state-space structure (order, feedthrough, delay)."""
-    from thermogym.identification.pem import _Data, _offset, _solve
 
     def fit(us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]]) -> Any:
         from thermogym.identification.n4sid import n4sid_decompose
@@ -593,7 +587,6 @@ def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
 
 def _sopdt_fold(prob: Any) -> Any:
     """Fold fitter of SOPDT on fold deviation data (the problem's operating-point mode kept)."""
-    from thermogym.identification.pem import _sopdt_fit, _sub_problem
 
     def fit(us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]]) -> Any:
         model, th, _, _ = _sopdt_fit(_sub_problem(prob, us, ys), None, 100)
