@@ -86,6 +86,8 @@ def test_a_two_effect_case_reports_both_largest_share_first(effects, names):
     assert all(0 < x <= 1 for x in shares) and sum(shares) == pytest.approx(1.0)
     assert shares == sorted(shares, reverse=True)  # the effect that removes most comes first
     assert rep.named_effects[0] == rep.combination[0]["effect"] == rep.best["effect"]
+    # an effect of the combination is no alternative to another of it
+    assert not {a["effect"] for a in rep.alternatives} & set(rep.named_effects)
     assert rep.best["validation_after"]["mean"] > rep.best["validation_before"]["mean"]
 
 
@@ -185,6 +187,7 @@ def test_a_constant_offset_is_not_taken_for_a_disturbance_course_it_looks_like(s
     best = rep.best["delta_ic"]
     for a in rep.alternatives:
         assert a["effect"] != "sensor_offset" and a["delta_ic"] <= best + 6.0
+        assert a["instead_of"] == "sensor_offset"
         assert "calibration point" in a["tell_apart"]
     assert ("## Alternatives the data do not tell apart" in rep.to_markdown()) == bool(
         rep.alternatives

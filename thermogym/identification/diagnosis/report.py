@@ -104,8 +104,8 @@ class DiagnosisReport:
     baseline : dict
         The plain ARX baseline on the same data.
     alternatives : list of dict
-        Other effects the held-out data fit about as well as the first named
-        one (ΔIC within 6), with the experiment that would tell them apart.
+        Other effects the held-out data fit about as well as the first effect kept
+        (``instead_of``; ΔIC within 6), with the experiment that would tell them apart.
     complete : bool
         False when the time limit cut the search short (``incomplete`` says
         what was left out; the ranking covers only what was tried).
@@ -227,7 +227,8 @@ class DiagnosisReport:
                 + ", ".join(
                     f"'{a['effect']}' ({a['form']}, {a['target']})" for a in self.alternatives
                 )
-                + f" about as well as '{named[0]}' (see alternatives: the experiment that tells "
+                + f" about as well as '{self.alternatives[0].get('instead_of', named[0])}' "
+                "(see alternatives: the experiment that tells "
                 "them apart)."
             )
         return lead + (
@@ -422,7 +423,8 @@ class DiagnosisReport:
                 "## Alternatives the data do not tell apart",
                 "",
                 *[
-                    f"* `{a['effect']}` ({a['form']}, {a['target']}): held-out ΔIC "
+                    f"* `{a['effect']}` ({a['form']}, {a['target']}) instead of "
+                    f"`{a.get('instead_of', '')}`: held-out ΔIC "
                     f"{a['delta_ic']:.1f}, {100 * a['explained']:.0f} % of the systematic error "
                     f"removed. To tell them apart: {a['tell_apart']}."
                     for a in self.alternatives

@@ -1051,7 +1051,7 @@ def _stage_report(st: _Run) -> DiagnosisReport:
             )
         first = steps[0]
         top = steps[order[0]]
-        report.alternatives = _alternatives(first, sel)
+        report.alternatives = _alternatives(first, sel, physics)
         report.best = {
             "effect": top.last.effect,
             "form": top.last.form,
@@ -1096,18 +1096,22 @@ def _stage_report(st: _Run) -> DiagnosisReport:
 ALTERNATIVE_DIC = 6.0
 
 
-def _alternatives(first: Hypothesis, sel: Selection) -> list[dict[str, Any]]:
-    """Other effects the first round fitted about as well as the first named one.
+def _alternatives(
+    first: Hypothesis, sel: Selection, named: Sequence[str] = ()
+) -> list[dict[str, Any]]:
+    """Other effects the first round fitted about as well as the first one kept.
 
     Jointly refitted (not only screened) hypotheses of another effect whose held-out
-    ΔIC is within :data:`ALTERNATIVE_DIC` of the first named one's and that remove
+    ΔIC is within :data:`ALTERNATIVE_DIC` of the first kept one's and that remove
     at least 90 % of the error it removes: the data do not tell them apart, and
-    the report names the experiment that would.
+    the report names the experiment that would. Effects already in the combination
+    (``named``) are not alternatives to it; each entry says which effect it is an
+    alternative to (``instead_of``).
     """
     out: list[dict[str, Any]] = []
     if first.last is None or not math.isfinite(first.delta_ic):
         return out
-    seen = {first.last.effect}
+    seen = {first.last.effect, *named}
     for h in sel.first_round:
         c = h.last
         if c is None or h.screened or not h.ok or c.effect in seen:
@@ -1125,6 +1129,7 @@ def _alternatives(first: Hypothesis, sel: Selection) -> list[dict[str, Any]]:
                 "target": c.target,
                 "delta_ic": h.delta_ic,
                 "explained": h.explained,
+                "instead_of": first.last.effect,
                 "tell_apart": (
                     f"{entry.experiment('')} (for {c.effect}); "
                     f"{CATALOGUE[first.last.effect].experiment('')} (for {first.last.effect})"
