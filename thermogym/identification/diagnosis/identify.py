@@ -77,10 +77,10 @@ def intervals(
     if local_vals:
         names_l = [p for p in free if p in h.local]
         for i, vals in enumerate(local_vals):
-            a = pb.n_global + i * pb.n_local
-            for j, p in enumerate(names_l):
+            base = pb.n_global + i * pb.n_local
+            for jl, p in enumerate(names_l):
                 if p in vals:
-                    z[a + j] = vals[p]
+                    z[base + jl] = vals[p]
     r = pb.residuals(z[None])[0]
     span = np.where(pb.z_upper > pb.z_lower, pb.z_upper - pb.z_lower, 1.0)
     step = np.where(z + 1e-6 * span <= pb.z_upper, 1e-6 * span, -1e-6 * span)

@@ -311,8 +311,8 @@ def locate(
         ok = np.isfinite(e)
         sq += np.where(ok, e * e, 0.0).sum(axis=0)
         cnt += ok.sum(axis=0)
-        w = np.array([1.0 / (scale[o] or 1.0) for o in outputs])
-        sse += np.where(ok, (e * w) ** 2, 0.0).sum(axis=0)
+        inv_scale = np.array([1.0 / (scale[o] or 1.0) for o in outputs])
+        sse += np.where(ok, (e * inv_scale) ** 2, 0.0).sum(axis=0)
     share = sse / sse.sum() if sse.sum() > 0 else np.zeros(n_y)
     signals: list[dict[str, Any]] = []
     for j, o in enumerate(outputs):

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -210,8 +210,8 @@ def generic_start(model: Model, train: Sequence[Experiment]) -> NDArray[np.float
         if mats is not None:
             for name, M in zip("ABC", mats, strict=True):
                 for r in range(M.shape[0]):
-                    for c in range(M.shape[1]):
-                        th[model.param_index(f"{name}_{r}_{c}")] = M[r, c]
+                    for col in range(M.shape[1]):
+                        th[model.param_index(f"{name}_{r}_{col}")] = M[r, col]
         else:
             n = base.n_states
             taus = np.geomspace(max(5 * train[0].dt, dur / 200), dur / 3, n)
@@ -280,7 +280,8 @@ def calibration_set(
     span = np.where(upper > lower, upper - lower, 1.0)
     h = np.where(z + 1e-4 * span <= upper, 1e-4 * span, -1e-4 * span)
     J = pb.jacobian(z, r0, h)
-    keep = np.isfinite(J).all(axis=0)
+    # J is 2-D (N, n_free), so the reduction over axis 0 is an array, not a scalar
+    keep = cast(NDArray[np.bool_], np.isfinite(J).all(axis=0))
     J = np.where(np.isfinite(J), J, 0.0)
     idf = identifiability(
         J,

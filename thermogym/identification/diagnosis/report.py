@@ -648,7 +648,13 @@ class DiagnosisReport:
             folder.mkdir(parents=True, exist_ok=True)
             for i, (cap, png) in enumerate(self.figures().items()):
                 f = folder / f"figure{i + 1}.png"
-                atomic_write(f, lambda tmp, data=png: tmp.write_bytes(data))
+
+                # a def rather than a lambda: mypy cannot infer a lambda with a default
+                # argument (the default binds this loop's figure)
+                def _write(tmp: Path, data: bytes = png) -> None:
+                    tmp.write_bytes(data)
+
+                atomic_write(f, _write)
                 figs[cap] = f"{figures_dir}/{f.name}"
         try:
             return atomic_write_text(p, self.to_markdown(figs), overwrite=overwrite)

@@ -168,6 +168,13 @@ def _local_bounds(model: Model, names: Sequence[str]) -> tuple[NDArray, NDArray]
     return model.lower[idx].copy(), model.upper[idx].copy()
 
 
+def _added(h: Hypothesis) -> Candidate:
+    """The candidate ``h`` adds to its parent (each hypothesis a round fits adds one)."""
+    c = h.last
+    assert c is not None, "internal: a hypothesis of a selection round adds no candidate"
+    return c
+
+
 def held_out(
     model: Model,
     theta: NDArray[np.float64],
@@ -248,6 +255,10 @@ def fit_hypothesis(
     try:
         model = spec.build(cands)
         fit_with = fast_or_none(model) or model
+        # the parent (the nominal model or a kept hypothesis) was fitted by an earlier stage
+        assert parent.model is not None and parent.theta is not None, (
+            "internal: the parent hypothesis has no fitted model"
+        )
         base = merge_values(parent.model, parent.theta, model)
         groups = {p.name: p.group for p in model.parameters}
         new = [p for p in model.param_names if p not in parent.model.param_names]
@@ -275,6 +286,7 @@ def fit_hypothesis(
         h.model = model
         h.free = tuple(free)
         h.bounds = {p: bounds[p] for p in free}
+        assert nominal.model is not None, "internal: the nominal hypothesis has no model"
         h.extra = tuple(
             p
             for p in model.param_names
@@ -504,6 +516,8 @@ def _round(
         if data.expired:
             data.skip(f"{len(top) - j} screened candidates not refitted jointly")
             break
+        # hs was fitted without error (``ok`` above), so its model is set
+        assert hs.model is not None, "internal: a screened hypothesis has no model"
         start = {p: hs.value(p) for p in hs.extra if p in hs.model.param_names}
         h = fit_hypothesis(spec, current, hs.last, data, nominal, start=start)
         if not h.ok or (hs.ok and hs.delta_ic < h.delta_ic and hs.wsse_val < h.wsse_val):
@@ -511,7 +525,7 @@ def _round(
             h = hs if hs.ok else h
         fitted.append(h)
         data.say(
-            f"{h.last.label}: held-out ΔIC {h.delta_ic:.1f}, mean NRMSE "
+            f"{_added(h).label}: held-out ΔIC {h.delta_ic:.1f}, mean NRMSE "
             f"{h.validation_after.get('mean', math.nan):.4f} ({h.seconds:.1f} s)"
         )
     m = max(1, len(screened))
@@ -541,7 +555,7 @@ def _round(
         if ratio >= PREDICTIVE_SHARE:
             oks[id(h)] = False
             h.notes.append(
-                f"{p_best.last.label} predicts the held-out data without re-estimating a course "
+                f"{_added(p_best).label} predicts the held-out data without re-estimating a course "
                 f"there and removes {100 * min(ratio, 1.0):.1f} % of the error this one removes"
             )
     # a course the plant's physics shapes (a disturbance filtered by the plant, a coefficient
@@ -557,13 +571,15 @@ def _round(
         if survived >= BEAM:
             break
         if data.expired:
-            data.skip(f"no course baseline beside {h.last.label}")
+            data.skip(f"no course baseline beside {_added(h).label}")
             continue
-        g = fit_hypothesis(spec, current, data.course_baseline(n_new), data, nominal)
+        # g.last is this baseline candidate (a hypothesis keeps its candidates, fitted or not)
+        gc = data.course_baseline(n_new)
+        g = fit_hypothesis(spec, current, gc, data, nominal)
         h.baseline = {
             **h.baseline,
             "course": {
-                "baseline": f"{g.last.form} on {g.last.target} ({n_new} knots per recording)",
+                "baseline": f"{gc.form} on {gc.target} ({n_new} knots per recording)",
                 "delta_ic": g.delta_ic,
                 "validation_after": g.validation_after,
                 "physics_favoured": bool(not g.ok or h.delta_ic < g.delta_ic),
@@ -572,7 +588,7 @@ def _round(
         if g.ok and g.delta_ic <= h.delta_ic:
             oks[id(h)] = False
             h.notes.append(
-                f"a course of {n_new} knots per recording added to {g.last.target}'s reading "
+                f"a course of {n_new} knots per recording added to {gc.target}'s reading "
                 f"fits the held-out data as well (ΔIC {g.delta_ic:.1f} against "
                 f"{h.delta_ic:.1f}): what this course follows cannot be told from coloured "
                 "noise of the sensor"
@@ -591,10 +607,10 @@ def _round(
             _key(h),
         )
     )
-    oks = [oks[id(h)] for h in fitted]
+    passed = [oks[id(h)] for h in fitted]
     rest = [h for h in screened if h not in top]
     rest.sort(key=lambda h: (h.error != "", h.delta_ic_train))
-    return fitted, oks, rest
+    return fitted, passed, rest
 
 
 def course_independence(h: Hypothesis, data: Data) -> tuple[float, str]:
@@ -632,6 +648,8 @@ def course_independence(h: Hypothesis, data: Data) -> tuple[float, str]:
         return 1.0, ""
     xs: dict[tuple[str, int], list[float]] = {}
     ds: list[float] = []
+    # h was fitted (it passed its round), so its values are set
+    assert h.theta is not None, "internal: a kept hypothesis has no fitted values"
     for e, loc in zip(exps, locs, strict=True):
         th = h.theta.copy()
         for k, v in loc.items():
@@ -659,8 +677,8 @@ def course_independence(h: Hypothesis, data: Data) -> tuple[float, str]:
     dv = np.array(ds)
     best_p, where = 1.0, ""
     m = len(xs)
-    for (name, lag), x in xs.items():
-        xv = np.array(x)
+    for (name, lag), x_block in xs.items():
+        xv = np.array(x_block)
         if xv.std() == 0 or dv.std() == 0:
             continue
         r = float(np.corrcoef(xv, dv)[0, 1])
@@ -754,7 +772,7 @@ def forward_selection(
                 grown.append((steps, pool, True))
                 continue
             for k, w in enumerate(winners[: beam if r == 0 else 1]):
-                data.say(f"kept {w.last.label} (ΔIC {w.delta_ic:.1f})")
+                data.say(f"kept {_added(w).label} (ΔIC {w.delta_ic:.1f})")
                 nxt = full if (r == 0 and k == 0) else [c for c in pool if id(c) in promising]
                 grown.append(([*steps, w], _next_pool(nxt, w), False))
         paths = grown
@@ -789,7 +807,9 @@ def forward_selection(
         # paths that reach the same combination in another order: the order is the one whose
         # first effect explained most on its own (the shares are counted along the order)
         same = [s for s, _ in finals if _labels(s) == _labels(steps)]
-        sel.steps = list(min(same, key=lambda s: s[0].delta_ic))
+        # two statements: inside list(...) mypy infers min's type from the context
+        first = min(same, key=lambda s: s[0].delta_ic)
+        sel.steps = list(first)
     return sel
 
 
