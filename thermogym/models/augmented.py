@@ -10,7 +10,7 @@ with a few parameters whose neutral value switches it off. Effects a plant's
 own equations can include (``phase_change`` of the AXT211,
 ``input_dependent_heat_transfer`` of the RC networks, ...) are not wrapped:
 they are switched on in the base model through ``base_config = {"effects":
-[...]}``. The forms are in :mod:`thermogym.models._augment_kinds`.
+[...]}``. The forms are indexed in :mod:`thermogym.models._augment_kinds`.
 
 The augmentations act in four places::
 
@@ -94,16 +94,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError, ParameterError, ShapeError
-from thermogym.models._augment_kinds import (
-    AUGMENTATIONS,
-    LOCAL,
-    RESIDUAL_TERMS,
-    _Aug,
-    _Delay,
-    _Loop,
-    kind_of,
-    term_tag,
-)
+from thermogym.models._augment_base import LOCAL, _Aug
+from thermogym.models._augment_input import _Delay
+from thermogym.models._augment_kinds import AUGMENTATIONS, kind_of
+from thermogym.models._augment_loop import _Loop
+from thermogym.models._augment_plant import RESIDUAL_TERMS, term_tag
 from thermogym.models.base import Model
 
 __all__ = [

@@ -1,0 +1,497 @@
+"""The stages of :func:`.run.diagnose` that prepare the data and test the nominal model.
+
+``nominal`` (resolve the model, prepare the recordings, re-calibrate the identifiable
+parameters), ``baseline`` (a plain ARX the nominal model must not lose to),
+``detection`` (residual tests and materiality; the scoring scheme), ``location``
+(noise levels, outputs, windows and regimes carrying the error) and ``parameters``
+(the given parameters against the re-calibrated ones on held-out data).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from thermogym.errors import ConfigError, RecordingError, UnknownNameError
+from thermogym.fitresult import load_fit
+from thermogym.identification.diagnosis.effects import CATALOGUE
+from thermogym.identification.diagnosis.fit import FitProblem, output_weights, prepare_experiments
+from thermogym.identification.diagnosis.hypothesis import Hypothesis, NominalSpec
+from thermogym.identification.diagnosis.identify import intervals
+from thermogym.identification.diagnosis.locate import locate, regime_variables
+from thermogym.identification.diagnosis.nominal import (
+    arx_baseline,
+    calibrate,
+    calibration_set,
+    generic_bounds,
+    generic_start,
+    resolve_model,
+)
+from thermogym.identification.diagnosis.residuals import noise_sigma, residual_tests
+from thermogym.identification.diagnosis.run_state import _deadline, _Run
+from thermogym.identification.diagnosis.scoring import delta_ic, whitened_chi2
+from thermogym.identification.diagnosis.select import (
+    Data,
+    fit_hypothesis,
+    nrmse_table,
+    residuals_of,
+    score_self,
+)
+from thermogym.models.base import Model
+from thermogym.recording import Recording
+
+_MIN_SAMPLES = 10
+#: How much better (mean held-out NRMSE fit, 0.01 = one per cent of the outputs' variation)
+#: the plain ARX baseline must predict before the nominal model is called inadequate: a
+#: tie within a few thousandths (0.993 against 0.992) is coloured noise, not a verdict.
+INADEQUATE_MARGIN = 0.01
+
+
+# ------------------------------------------------------------------ stage: nominal
+def _check_inputs(st: _Run) -> None:
+    o = st.opts
+    model = o["model"]
+    generic = isinstance(model, str) and model.partition(":")[0] in ("foptd", "ss")
+    if generic and o["params"] is not None and not (o["inputs"] and o["outputs"]):
+        # the columns of a given generic FitResult are its own
+        cfg = load_fit(o["params"]).model_config
+        cfg = cfg.get("base_config", cfg) if "base" in cfg else cfg
+        o["inputs"] = o["inputs"] or [*cfg.get("inputs", []), *cfg.get("disturbances", [])]
+        o["outputs"] = o["outputs"] or list(cfg.get("outputs", []))
+    nominal, spec = resolve_model(
+        model,
+        st.tr_list[0],
+        model_config=o["model_config"],
+        inputs=o["inputs"],
+        outputs=o["outputs"],
+    )
+    st.generic = isinstance(model, str) and model.partition(":")[0] in ("foptd", "ss")
+    for i, r in enumerate([*st.tr_list, *st.va_list]):
+        if not isinstance(r, Recording):
+            raise RecordingError(
+                f"item {i} of the recordings is a {type(r).__name__}; expected a Recording "
+                "(read files with thermogym.recording.read_recording)"
+            )
+        r.validate_for(nominal, outputs=False)  # names the columns a recording of this model needs
+    outputs = o["outputs"]
+    if outputs and not st.generic:
+        bad = [x for x in outputs if x not in nominal.output_names]
+        if bad:
+            raise UnknownNameError(
+                f"{bad} are not outputs of model {nominal.name!r}; outputs are "
+                f"{list(nominal.output_names)}"
+            )
+    outs = [x for x in (outputs or nominal.output_names) if x in nominal.output_names]
+    if not outputs:
+        outs = [
+            x for x in nominal.output_names if all(x in r.columns for r in st.tr_list + st.va_list)
+        ]
+    if not outs:
+        raise RecordingError(
+            f"the recordings hold none of the outputs of model {nominal.name!r} "
+            f"({list(nominal.output_names)}); columns are {list(st.tr_list[0].columns)}: are they "
+            "recordings of another plant?"
+        )
+    if st.generic and o["params"] is None:
+        # operating point: the training data's mean exogenous values (model column order)
+        us = [r.exogenous_array(nominal) for r in st.tr_list]
+        u = np.concatenate(us)
+        spec.base_config["u_op"] = np.nanmean(u, axis=0).tolist()
+        if all(_constant(x) for x in us):
+            # every input holds one value through every training recording (a step test logged
+            # from the step on): with the initial state free, the input's effect cannot be told
+            # from the state the recording starts in. Its only evidence is the step from zero at
+            # the start, so the recordings are taken to start at rest with the inputs off before
+            spec.base_config["u_op"] = [0.0] * u.shape[1]
+            if "steady_start" in spec.base_config:
+                spec.base_config["steady_start"] = False
+            st.x0 = "rest"
+            st.notes.append(
+                "every input is constant within every training recording: the recordings are "
+                "taken to start at rest with the inputs at zero before their start (the initial "
+                "state is not estimated; give training recordings in which the inputs change to "
+                "have it estimated)"
+            )
+        nominal = spec.build()
+    st.model, st.spec, st.outs = nominal, spec, outs
+
+
+def _beyond_training(names: Sequence[str], tr: Sequence[Any], va: Sequence[Any]) -> list[str]:
+    """Notes on inputs the held-out recordings take beyond the training range (extrapolation).
+
+    Beyond by more than 10 % of the training span at either end: what the held-out data
+    show there, the training data could not have taught any hypothesis.
+    """
+    out = []
+    for i, name in enumerate(names):
+        a = np.concatenate([e.u[:, i] for e in tr])
+        b = np.concatenate([e.u[:, i] for e in va])
+        a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+        if not (a.size and b.size):
+            continue
+        lo, hi = float(a.min()), float(a.max())
+        span = hi - lo
+        if span <= 0:
+            continue
+        blo, bhi = float(b.min()), float(b.max())
+        if bhi > hi + 0.1 * span or blo < lo - 0.1 * span:
+            out.append(
+                f"the held-out recordings take {name} to {blo:.4g}..{bhi:.4g}, beyond its "
+                f"training range {lo:.4g}..{hi:.4g}: a mismatch there may be extrapolation "
+                "the training data could not teach any hypothesis (train over the whole range)"
+            )
+    return out
+
+
+def _constant(u: NDArray[np.float64]) -> bool:
+    """Whether every column of ``u`` (T, n) holds one value (NaN samples ignored)."""
+    if u.size == 0:
+        return False
+    lo, hi = np.nanmin(u, axis=0), np.nanmax(u, axis=0)
+    return bool(np.all(hi - lo <= 1e-9 * np.maximum(1.0, np.abs(hi))))
+
+
+def _stage_nominal(st: _Run) -> None:
+    _check_inputs(st)
+    o = st.opts
+    model, spec, outs = st.model, st.spec, st.outs
+    assert model is not None and spec is not None
+    st.say(f"model {spec.name}: outputs {outs}")
+    st.tr = prepare_experiments(model, st.tr_list, outs, dt=o["dt"], what="training")
+    st.va = prepare_experiments(model, st.va_list, outs, dt=o["dt"], what="validation")
+    for e in [*st.tr, *st.va]:
+        if e.n < _MIN_SAMPLES:
+            raise RecordingError(
+                f"recording {e.name!r} has {e.n} samples; diagnosis needs at least "
+                f"{_MIN_SAMPLES} per recording (too short to fit or validate)"
+            )
+    st.notes += [n for e in st.tr + st.va for n in e.notes]
+    st.notes += _beyond_training(list(model.exogenous_names), st.tr, st.va)
+    st.weights = output_weights(st.tr)
+    # ---- the given parameters
+    given = model.nominal.copy()
+    fixed: set[str] = set()
+    if o["params"] is not None:
+        given, fixed, model, spec = _given(o["params"], model, spec, st)
+        st.model, st.spec = model, spec
+        st.method = "given, re-calibrated"
+    elif st.generic:
+        given = generic_start(model, st.tr)
+        st.method = "identified (generic model)"
+    else:
+        st.method = "design values, re-calibrated"
+    st.given_fixed = fixed
+    cands = [p for p in model.param_names if p not in fixed]
+    if st.generic:
+        lo, hi = generic_bounds(model, cands, given, st.tr)
+    else:
+        idx = [model.param_index(p) for p in cands]
+        lo, hi = model.lower[idx].copy(), model.upper[idx].copy()
+        # a given value outside the declared range widens it (the FitResult's own bounds)
+        g = given[idx]
+        lo, hi = np.minimum(lo, g), np.maximum(hi, g)
+    given[[model.param_index(p) for p in cands]] = np.clip(
+        given[[model.param_index(p) for p in cands]], lo, hi
+    )
+    st.bounds = {p: (float(a), float(b)) for p, a, b in zip(cands, lo, hi, strict=True)}
+    st.given = given.copy()
+    n_obs = sum(e.n * len(outs) for e in st.tr)
+    # ---- which parameters the training data identify
+    if st.generic:
+        sel, table = list(cands), {}
+    else:
+        sel, table = calibration_set(model, given, cands, lo, hi, st.tr, st.weights, st.x0)
+    if n_obs < 5 * max(len(sel), 1):
+        raise RecordingError(
+            f"the training recordings hold {n_obs} output samples for {len(sel)} parameters; "
+            "too short to fit the nominal model (need at least 5 per parameter)"
+        )
+    st.calibrated, st.idf_table = sel, table
+    st.say(f"re-calibrating {len(sel)} identifiable parameter(s) of {len(cands)}: {sel}")
+    sel_lo = np.array([st.bounds[p][0] for p in sel])
+    sel_hi = np.array([st.bounds[p][1] for p in sel])
+    deadline = _deadline(st)
+    out = calibrate(
+        model,
+        given,
+        sel,
+        sel_lo,
+        sel_hi,
+        st.tr,
+        st.weights,
+        st.x0,
+        n_random=6 if not st.generic else 4,
+        max_nfev=max(o["max_nfev"], 60) if not st.generic else 150,
+        deadline=deadline,
+    )
+    h = Hypothesis(
+        candidates=(),
+        model=model,
+        free=tuple(sel),
+        bounds={p: st.bounds[p] for p in sel},
+        theta=out.theta.copy(),
+        outcome=out,
+    )
+    pb = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.tr, st.weights, st.x0)
+    h.sims_train = [pb.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.tr))]
+    pv = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.va, st.weights, st.x0)
+    h.sims_val = [pv.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.va))]
+    st.nominal = h
+
+
+def _given(params, model, spec, st):
+    """Parameters of a given FitResult, in the nominal model (its operating point kept)."""
+    fit = load_fit(params)
+    built = fit.build_model()
+    name = spec.name.split(":")[0]
+    if fit.model == model.name or (fit.model == "augmented" and model.name == "augmented"):
+        theta = fit.theta(built)[0]
+        return (
+            np.asarray(theta, dtype=float),
+            {p for p in fit.fixed if p in built.param_names},
+            built,
+            _spec_of(built, spec),
+        )
+    if name in ("ss", "foptd") and fit.model == name:
+        # a FitResult of the generic model itself: wrapped with the diagnosis' output offsets
+        order = spec.name.partition(":")[2]
+        n_fit = fit.model_config.get("n_states")
+        if name == "ss" and order and n_fit is not None and int(order) != int(n_fit):
+            raise ConfigError(
+                f"the FitResult (params, --params) is of model 'ss' with {n_fit} states; the "
+                f"diagnosed model is {spec.name!r}: give --model ss:{n_fit}, or leave out "
+                f"params (--params) to fit {spec.name!r} here"
+            )
+        new_spec = NominalSpec(name, dict(fit.model_config), list(spec.augmentations), spec.name)
+        m = new_spec.build()
+        th = m.nominal.copy()
+        for p, v in zip(built.param_names, fit.theta(built)[0], strict=True):
+            th[m.param_index(p)] = v
+        for p in m.param_names:
+            if p.startswith("offset_"):
+                th[m.param_index(p)] = 0.0  # the FitResult's y_op carries the level
+        return th, {p for p in fit.fixed if p in built.param_names}, m, new_spec
+    raise ConfigError(
+        f"the FitResult (params, --params) is for model {fit.model!r}, not for the diagnosed "
+        f"model {spec.name!r}; give a FitResult of {spec.name!r}, the augmented FitResult "
+        f"(--augmented-fit) of an earlier diagnosis of {spec.name!r}, or leave out params "
+        "(--params) to fit it here"
+    )
+
+
+def _spec_of(model: Model, spec: NominalSpec) -> NominalSpec:
+    from thermogym.models.augmented import AugmentedModel
+
+    if isinstance(model, AugmentedModel):
+        cfg = model.config()
+        return NominalSpec(cfg["base"], cfg["base_config"], cfg["augmentations"], spec.name)
+    return NominalSpec(model.name, model.config(), [], spec.name) if spec.registered else spec
+
+
+# ------------------------------------------------------------------ stage: baseline
+def _stage_baseline(st: _Run) -> None:
+    try:
+        arx = arx_baseline(st.tr, st.va)
+    except Exception as e:  # a baseline that cannot be fitted is said, not fatal
+        st.arx = {"error": f"{type(e).__name__}: {e}"}
+        return
+    fit = nrmse_table(st.outs, [e.y for e in st.va], arx["sims"])
+    nom = nrmse_table(st.outs, [e.y for e in st.va], st.nominal.sims_val)
+    st.arx = {
+        "model": "ARX(2, 2), one intercept, per output (least squares, simulated)",
+        "n_params": arx["n_params"],
+        "validation": fit,
+        "nominal_validation": nom,
+        "nominal_adequate": not (
+            fit.get("mean", -math.inf) > nom.get("mean", math.nan) + INADEQUATE_MARGIN
+        ),
+        "sims": arx["sims"],
+    }
+    if not st.arx["nominal_adequate"]:
+        st.say(
+            f"nominal model inadequate: held-out mean NRMSE {nom['mean']:.3f} against a plain "
+            f"ARX's {fit['mean']:.3f}"
+        )
+
+
+# ------------------------------------------------------------------ stage: detection
+def _tests(outputs, exps, sims, alpha, max_lag, inputs) -> dict[str, Any]:
+    out = {}
+    for j, o in enumerate(outputs):
+        res = [e.y[:, j] - s[:, j] for e, s in zip(exps, sims, strict=True)]
+        ins = [{c: e.u[:, i] for i, c in enumerate(inputs)} for e in exps]
+        out[o] = residual_tests(
+            res, ins, signal=o, measured=[e.y[:, j] for e in exps], max_lag=max_lag, alpha=alpha
+        )
+    return out
+
+
+def _significant(t, alpha_adj, min_snr, min_rel) -> bool:
+    stat = t.p_white < alpha_adj or any(p < alpha_adj for p in t.p_independent.values())
+    return bool(stat and t.material(min_snr, min_rel))
+
+
+def _stage_detection(st: _Run) -> None:
+    o = st.opts
+    h = st.nominal
+    exo = list(st.model.exogenous_names)
+    tests_tr = _tests(st.outs, st.tr, h.sims_train, o["alpha"], o["max_lag"], exo)
+    tests_va = _tests(st.outs, st.va, h.sims_val, o["alpha"], o["max_lag"], exo)
+    alpha_adj = o["alpha"] / (len(st.outs) * (1 + len(exo)))
+    sig_tr = {
+        x: _significant(t, alpha_adj, o["min_snr"], o["min_rel"]) for x, t in tests_tr.items()
+    }
+    sig_va = {
+        x: _significant(t, alpha_adj, o["min_snr"], o["min_rel"]) for x, t in tests_va.items()
+    }
+    st.detected = any(sig_tr.values()) or any(sig_va.values())
+    st.train_material = any(sig_tr.values())
+    st.tests = {
+        "train": tests_tr,
+        "validation": tests_va,
+        "sig_tr": sig_tr,
+        "sig_va": sig_va,
+        "alpha_adj": alpha_adj,
+    }
+    use = o["scheme"]
+    if use == "auto":
+        use = "crossfit" if (st.detected and not st.train_material and len(st.va) >= 2) else "split"
+    if use == "crossfit" and len(st.va) < 2:
+        raise ConfigError("scheme 'crossfit' needs at least two validation recordings")
+    deadline = _deadline(st)
+    st.data = Data(
+        st.tr, st.va, st.weights, st.x0, o["alpha"], use, o["max_nfev"], deadline, st.say
+    )
+    # the nominal's own scores (the reference of every comparison)
+    score_self(h, st.data)
+    if use == "crossfit":
+        # the nominal's held-out predictions from the folds, like every hypothesis'
+        ref = fit_hypothesis(st.spec, h, None, st.data, h)
+        if ref.ok:
+            h.sims_val = ref.sims_val
+            score_self(h, st.data)
+    st.say(
+        "mismatch: "
+        + (
+            ", ".join(x for x in st.outs if sig_tr[x] or sig_va[x])
+            if st.detected
+            else "none significant"
+        )
+    )
+
+
+# ------------------------------------------------------------------ stage: location
+def _stage_location(st: _Run) -> None:
+    h = st.nominal
+    all_exps = [*st.tr, *st.va]
+    roles = ["train"] * len(st.tr) + ["validation"] * len(st.va)
+    all_sims = [*h.sims_train, *h.sims_val]
+    units = {s.name: s.unit for s in st.model.signals}
+    exo = list(st.model.exogenous_names)
+    sigma = {}
+    for j, o in enumerate(st.outs):
+        vals = [noise_sigma(e.y[:, j] - s[:, j]) for e, s in zip(all_exps, all_sims, strict=True)]
+        vals = [v for v in vals if math.isfinite(v)]
+        sigma[o] = float(np.sqrt(np.mean(np.square(vals)))) if vals else math.nan
+    st.sigma = sigma
+    if st.data is not None:
+        st.data.noise = np.array([sigma[o] for o in st.outs], dtype=float)
+        st.data.min_snr = float(st.opts["min_snr"])
+    scale = {o: 1.0 / float(st.weights[j]) for j, o in enumerate(st.outs)}
+    st.regs = regime_variables(
+        [e.name for e in all_exps],
+        roles,
+        units,
+        [(c, [e.u[:, i] for e in all_exps]) for i, c in enumerate(exo)],
+        [(o, [s[:, j] for s in all_sims]) for j, o in enumerate(st.outs)],
+        [e.dt for e in all_exps],
+        [e.time for e in all_exps],
+    )
+    recs_loc = [
+        {
+            "name": e.name,
+            "role": r,
+            "time": e.time,
+            "dt": e.dt,
+            "residual": e.y - s,
+            "measured": e.y,
+        }
+        for e, r, s in zip(all_exps, roles, all_sims, strict=True)
+    ]
+    st.located = locate(st.outs, recs_loc, st.regs, sigma, scale)
+    floor = sum(
+        float(st.weights[j] ** 2)
+        * sigma[o] ** 2
+        * sum(int(np.isfinite(e.y[:, j]).sum()) for e in st.va)
+        for j, o in enumerate(st.outs)
+        if math.isfinite(sigma[o])
+    )
+    h.baseline = {"noise_floor": floor}
+
+
+# ------------------------------------------------------------------ stage: parameters
+def _stage_parameters(st: _Run) -> None:
+    """Parameter or physics: whether the given parameters were off."""
+    h = st.nominal
+    if st.generic or not st.calibrated:
+        st.parameters = {
+            "tested": False,
+            "reason": "a generic model has no given parameters"
+            if st.generic
+            else "no identifiable parameter",
+        }
+        return
+    g = Hypothesis(candidates=(), model=st.model, theta=st.given.copy())
+    pb = FitProblem(st.model, (), st.given, np.zeros(0), np.zeros(0), st.tr, st.weights, st.x0)
+    g.sims_train = [pb.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.tr))]
+    pv = FitProblem(st.model, (), st.given, np.zeros(0), np.zeros(0), st.va, st.weights, st.x0)
+    g.sims_val = [pv.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.va))]
+    score_self(g, st.data)
+    st.given_h = g
+    # the calibrated model against the given one: k re-calibrated parameters
+    chi2, n = whitened_chi2(residuals_of(g, st.data)[1], residuals_of(h, st.data)[1])
+    d = delta_ic(chi2, len(st.calibrated), n)
+    better = bool(d < 0 and h.wsse_val < g.wsse_val)
+    iv = intervals(
+        h,
+        st.calibrated,
+        st.tr,
+        st.weights,
+        st.x0,
+        experiment={p: CATALOGUE["parameter_error"].experiment(p) for p in st.calibrated},
+    )
+    moved = {}
+    for p in st.calibrated:
+        v0 = float(st.given[st.model.param_index(p)])
+        v1 = float(h.theta[st.model.param_index(p)])
+        spec_p = st.model.parameters[st.model.param_index(p)]
+        row = {
+            "given": v0,
+            "calibrated": v1,
+            "value": v1,
+            "unit": spec_p.unit,
+            "description": spec_p.description,
+            **iv.get(p, {}),
+        }
+        lo_, hi_ = row.get("low", math.nan), row.get("high", math.nan)
+        row["moved"] = bool(math.isfinite(lo_) and not (lo_ <= v0 <= hi_))
+        moved[p] = row
+    h.intervals.update(iv)
+    outs = st.outs
+    st.parameters = {
+        "tested": True,
+        "delta_ic": d,
+        "chi2_heldout": chi2,
+        "significant": better,
+        "parameters": moved,
+        "moved": [p for p, r in moved.items() if r["moved"]],
+        "validation_given": nrmse_table(outs, [e.y for e in st.va], g.sims_val),
+        "validation_calibrated": nrmse_table(outs, [e.y for e in st.va], h.sims_val),
+        "identifiability": st.idf_table,
+    }
+    verdict = "explains part of the mismatch" if better else "changes nothing significant"
+    st.say(f"parameters: re-calibration {verdict} (held-out ΔIC {d:.1f})")
