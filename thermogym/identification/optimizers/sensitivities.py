@@ -274,7 +274,9 @@ def _axt211_sens_kernel(p, u, x0, S0, pos, h, nsub, y, dy, prow, ppar):  # pragm
     xV = x0[3]
     S = S0.copy()
     Ss = np.empty((3, NP))
-    K = np.empty((3, NP))
+    # zeros, not empty: stage 1 forms S + 0·K before any K is computed, and 0·NaN from
+    # uninitialised memory made a whole sensitivity run NaN now and then (a CI run)
+    K = np.zeros((3, NP))
     KS = np.empty((3, NP))  # the weighted stage sum of the K
     c, xmax = p[_C], p[_XMAX]
     lo, hi = -c, xmax + c
