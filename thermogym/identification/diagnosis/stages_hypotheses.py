@@ -20,28 +20,32 @@ from thermogym.identification.diagnosis.effects import (
 )
 from thermogym.identification.diagnosis.hypothesis import Hypothesis
 from thermogym.identification.diagnosis.identify import intervals
-from thermogym.identification.diagnosis.run_state import _Run
+from thermogym.identification.diagnosis.run_state import _need, _Run
 from thermogym.identification.diagnosis.select import (
     Selection,
+    _added,
     fit_hypothesis,
     forward_selection,
     passes,
 )
+from thermogym.identification.diagnosis.sindy import sparse_candidates
 
 
 # ------------------------------------------------------------------ stage: hypotheses
 def _stage_hypotheses(st: _Run) -> None:
     if not st.detected:
         return
-    h = st.nominal
+    h = _need(st.nominal, "nominal fit")
+    model = _need(st.model, "model")
+    weights = _need(st.weights, "output weights")
     all_exps = [*st.tr, *st.va]
     share = {d["signal"]: d["share_of_error"] for d in st.located["signals"]}
-    units = {s.name: s.unit for s in st.model.signals}
+    units = {s.name: s.unit for s in model.signals}
     no_units = all(units.get(o, "1") in ("1", "", None) for o in st.outs)
     st.ctx = Context(
-        model=st.model,
-        spec=st.spec,
-        theta=h.theta,
+        model=model,
+        spec=_need(st.spec, "nominal spec"),
+        theta=_need(h.theta, "nominal fit's values"),
         free=h.free,
         outputs=tuple(st.outs),
         time=[e.time for e in all_exps],
@@ -51,7 +55,7 @@ def _stage_hypotheses(st: _Run) -> None:
         sim=[*h.sims_train, *h.sims_val],
         is_train=[True] * len(st.tr) + [False] * len(st.va),
         sigma=st.sigma,
-        scale={o: 1.0 / float(st.weights[j]) for j, o in enumerate(st.outs)},
+        scale={o: 1.0 / float(weights[j]) for j, o in enumerate(st.outs)},
         share=share,
         regimes=st.located["all_regimes"],
         assumed_celsius=no_units,
@@ -77,21 +81,24 @@ def _stage_selection(st: _Run) -> None:
     if not st.detected or not st.candidates:
         st.selection = Selection()
         return
-    sel = forward_selection(
-        st.spec, st.nominal, st.candidates, st.data, max_effects=st.opts["max_effects"]
-    )
+    spec = _need(st.spec, "nominal spec")
+    nominal = _need(st.nominal, "nominal fit")
+    data = _need(st.data, "scoring data")
+    ctx = _need(st.ctx, "signature context")
+    sel = forward_selection(spec, nominal, st.candidates, data, max_effects=st.opts["max_effects"])
     # a generic extra state with as many parameters beside each kept effect (item 6)
-    parent = st.nominal
+    parent = nominal
     for h in sel.steps:
-        if st.data.expired:
-            st.data.skip(f"no generic-fix baseline beside {h.last.label}")
+        last = _added(h)
+        if data.expired:
+            data.skip(f"no generic-fix baseline beside {last.label}")
             continue
         n = max(2, h.k_global - parent.k_global)
-        g = generic_fix(st.ctx, n)
-        if h.last.effect == "missing_dynamics" and h.last.form == g.form:
+        g = generic_fix(ctx, n)
+        if last.effect == "missing_dynamics" and last.form == g.form:
             parent = h
             continue
-        gh = fit_hypothesis(st.spec, parent, g, st.data, st.nominal)
+        gh = fit_hypothesis(spec, parent, g, data, nominal)
         h.baseline = {
             **h.baseline,
             "generic_fix": f"{g.form} ({gh.k_global - parent.k_global} parameters)",
@@ -106,28 +113,28 @@ def _stage_selection(st: _Run) -> None:
             )
         parent = h
     if not sel.steps and st.opts["sparse"]:
-        if st.data.expired:
-            st.data.skip("the sparse regression of the residual not tried")
+        if data.expired:
+            data.skip("the sparse regression of the residual not tried")
         else:
             _sparse(st, sel)
     st.selection = sel
 
 
 def _sparse(st: _Run, sel: Selection) -> None:
-    from thermogym.identification.diagnosis.sindy import sparse_candidates
-
+    spec = _need(st.spec, "nominal spec")
+    nominal = _need(st.nominal, "nominal fit")
+    data = _need(st.data, "scoring data")
+    ctx = _need(st.ctx, "signature context")
     try:
-        cands = sparse_candidates(st.ctx)
+        cands = sparse_candidates(ctx)
     except Exception as e:  # pysindy missing or failing: said, not fatal
         st.notes.append(f"sparse regression not run: {type(e).__name__}: {e}")
         return
     best = None
     for c in cands:
-        h = fit_hypothesis(st.spec, st.nominal, c, st.data, st.nominal)
+        h = fit_hypothesis(spec, nominal, c, data, nominal)
         sel.first_round.append(h)
-        if passes(h, st.nominal, len(cands), st.data) and (
-            best is None or h.delta_ic < best.delta_ic
-        ):
+        if passes(h, nominal, len(cands), data) and (best is None or h.delta_ic < best.delta_ic):
             best = h
     if best is not None:
         sel.steps.append(best)
@@ -135,14 +142,14 @@ def _sparse(st: _Run, sel: Selection) -> None:
 
 # ------------------------------------------------------------------ stage: identifiability
 def _stage_identifiability(st: _Run) -> None:
-    sel = st.selection
-    if sel is None or not sel.steps:
+    final = st.selection.final if st.selection is not None else None
+    if final is None:  # nothing kept
         return
-    final = sel.final
     names = [p for p in final.free if p in final.extra or p in st.calibrated]
     exp = _experiments(final, names, st)
+    weights = _need(st.weights, "output weights")
     try:
-        final.intervals.update(intervals(final, names, st.tr, st.weights, st.x0, experiment=exp))
+        final.intervals.update(intervals(final, names, st.tr, weights, st.x0, experiment=exp))
     except Exception as e:  # reported, not fatal
         final.notes.append(f"intervals not computed: {type(e).__name__}: {e}")
 
@@ -151,9 +158,10 @@ def _experiments(final: Hypothesis, names: Sequence[str], st: _Run) -> dict[str,
     """Per parameter, the experiment that would identify it (from the effect that owns it)."""
     out: dict[str, str] = {}
     owner: dict[str, str] = {}
+    spec = _need(st.spec, "nominal spec")
     for c in final.candidates:
-        sub = st.spec.build([x for x in final.candidates if x is not c])
-        for p in final.model.param_names:
+        sub = spec.build([x for x in final.candidates if x is not c])
+        for p in _need(final.model, "kept hypothesis' model").param_names:
             if p not in sub.param_names:
                 owner[p] = c.effect
     for p in names:

@@ -10,16 +10,21 @@ parameters), ``baseline`` (a plain ARX the nominal model must not lose to),
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError, RecordingError, UnknownNameError
-from thermogym.fitresult import load_fit
+from thermogym.fitresult import FitResult, load_fit
 from thermogym.identification.diagnosis.effects import CATALOGUE
-from thermogym.identification.diagnosis.fit import FitProblem, output_weights, prepare_experiments
+from thermogym.identification.diagnosis.fit import (
+    Experiment,
+    FitProblem,
+    output_weights,
+    prepare_experiments,
+)
 from thermogym.identification.diagnosis.hypothesis import Hypothesis, NominalSpec
 from thermogym.identification.diagnosis.identify import intervals
 from thermogym.identification.diagnosis.locate import locate, regime_variables
@@ -31,8 +36,8 @@ from thermogym.identification.diagnosis.nominal import (
     generic_start,
     resolve_model,
 )
-from thermogym.identification.diagnosis.residuals import noise_sigma, residual_tests
-from thermogym.identification.diagnosis.run_state import _deadline, _Run
+from thermogym.identification.diagnosis.residuals import ResidualTest, noise_sigma, residual_tests
+from thermogym.identification.diagnosis.run_state import _deadline, _need, _Run
 from thermogym.identification.diagnosis.scoring import delta_ic, whitened_chi2
 from thermogym.identification.diagnosis.select import (
     Data,
@@ -41,6 +46,7 @@ from thermogym.identification.diagnosis.select import (
     residuals_of,
     score_self,
 )
+from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
 from thermogym.recording import Recording
 
@@ -120,7 +126,9 @@ def _check_inputs(st: _Run) -> None:
     st.model, st.spec, st.outs = nominal, spec, outs
 
 
-def _beyond_training(names: Sequence[str], tr: Sequence[Any], va: Sequence[Any]) -> list[str]:
+def _beyond_training(
+    names: Sequence[str], tr: Sequence[Experiment], va: Sequence[Experiment]
+) -> list[str]:
     """Notes on inputs the held-out recordings take beyond the training range (extrapolation).
 
     Beyond by more than 10 % of the training span at either end: what the held-out data
@@ -171,7 +179,8 @@ def _stage_nominal(st: _Run) -> None:
             )
     st.notes += [n for e in st.tr + st.va for n in e.notes]
     st.notes += _beyond_training(list(model.exogenous_names), st.tr, st.va)
-    st.weights = output_weights(st.tr)
+    weights = output_weights(st.tr)
+    st.weights = weights
     # ---- the given parameters
     given = model.nominal.copy()
     fixed: set[str] = set()
@@ -201,10 +210,11 @@ def _stage_nominal(st: _Run) -> None:
     st.given = given.copy()
     n_obs = sum(e.n * len(outs) for e in st.tr)
     # ---- which parameters the training data identify
+    table: dict[str, Any]
     if st.generic:
         sel, table = list(cands), {}
     else:
-        sel, table = calibration_set(model, given, cands, lo, hi, st.tr, st.weights, st.x0)
+        sel, table = calibration_set(model, given, cands, lo, hi, st.tr, weights, st.x0)
     if n_obs < 5 * max(len(sel), 1):
         raise RecordingError(
             f"the training recordings hold {n_obs} output samples for {len(sel)} parameters; "
@@ -222,7 +232,7 @@ def _stage_nominal(st: _Run) -> None:
         sel_lo,
         sel_hi,
         st.tr,
-        st.weights,
+        weights,
         st.x0,
         n_random=6 if not st.generic else 4,
         max_nfev=max(o["max_nfev"], 60) if not st.generic else 150,
@@ -236,14 +246,16 @@ def _stage_nominal(st: _Run) -> None:
         theta=out.theta.copy(),
         outcome=out,
     )
-    pb = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.tr, st.weights, st.x0)
+    pb = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.tr, weights, st.x0)
     h.sims_train = [pb.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.tr))]
-    pv = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.va, st.weights, st.x0)
+    pv = FitProblem(model, (), out.theta, np.zeros(0), np.zeros(0), st.va, weights, st.x0)
     h.sims_val = [pv.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.va))]
     st.nominal = h
 
 
-def _given(params, model, spec, st):
+def _given(
+    params: FitResult | str | Mapping[str, Any], model: Model, spec: NominalSpec, st: _Run
+) -> tuple[NDArray[np.float64], set[str], Model, NominalSpec]:
     """Parameters of a given FitResult, in the nominal model (its operating point kept)."""
     fit = load_fit(params)
     built = fit.build_model()
@@ -284,8 +296,6 @@ def _given(params, model, spec, st):
 
 
 def _spec_of(model: Model, spec: NominalSpec) -> NominalSpec:
-    from thermogym.models.augmented import AugmentedModel
-
     if isinstance(model, AugmentedModel):
         cfg = model.config()
         return NominalSpec(cfg["base"], cfg["base_config"], cfg["augmentations"], spec.name)
@@ -300,7 +310,7 @@ def _stage_baseline(st: _Run) -> None:
         st.arx = {"error": f"{type(e).__name__}: {e}"}
         return
     fit = nrmse_table(st.outs, [e.y for e in st.va], arx["sims"])
-    nom = nrmse_table(st.outs, [e.y for e in st.va], st.nominal.sims_val)
+    nom = nrmse_table(st.outs, [e.y for e in st.va], _need(st.nominal, "nominal fit").sims_val)
     st.arx = {
         "model": "ARX(2, 2), one intercept, per output (least squares, simulated)",
         "n_params": arx["n_params"],
@@ -319,7 +329,14 @@ def _stage_baseline(st: _Run) -> None:
 
 
 # ------------------------------------------------------------------ stage: detection
-def _tests(outputs, exps, sims, alpha, max_lag, inputs) -> dict[str, Any]:
+def _tests(
+    outputs: Sequence[str],
+    exps: Sequence[Experiment],
+    sims: Sequence[NDArray[np.float64]],
+    alpha: float,
+    max_lag: int,
+    inputs: Sequence[str],
+) -> dict[str, ResidualTest]:
     out = {}
     for j, o in enumerate(outputs):
         res = [e.y[:, j] - s[:, j] for e, s in zip(exps, sims, strict=True)]
@@ -330,15 +347,15 @@ def _tests(outputs, exps, sims, alpha, max_lag, inputs) -> dict[str, Any]:
     return out
 
 
-def _significant(t, alpha_adj, min_snr, min_rel) -> bool:
+def _significant(t: ResidualTest, alpha_adj: float, min_snr: float, min_rel: float) -> bool:
     stat = t.p_white < alpha_adj or any(p < alpha_adj for p in t.p_independent.values())
     return bool(stat and t.material(min_snr, min_rel))
 
 
 def _stage_detection(st: _Run) -> None:
     o = st.opts
-    h = st.nominal
-    exo = list(st.model.exogenous_names)
+    h = _need(st.nominal, "nominal fit")
+    exo = list(_need(st.model, "model").exogenous_names)
     tests_tr = _tests(st.outs, st.tr, h.sims_train, o["alpha"], o["max_lag"], exo)
     tests_va = _tests(st.outs, st.va, h.sims_val, o["alpha"], o["max_lag"], exo)
     alpha_adj = o["alpha"] / (len(st.outs) * (1 + len(exo)))
@@ -363,17 +380,26 @@ def _stage_detection(st: _Run) -> None:
     if use == "crossfit" and len(st.va) < 2:
         raise ConfigError("scheme 'crossfit' needs at least two validation recordings")
     deadline = _deadline(st)
-    st.data = Data(
-        st.tr, st.va, st.weights, st.x0, o["alpha"], use, o["max_nfev"], deadline, st.say
+    data = Data(
+        st.tr,
+        st.va,
+        _need(st.weights, "output weights"),
+        st.x0,
+        o["alpha"],
+        use,
+        o["max_nfev"],
+        deadline,
+        st.say,
     )
+    st.data = data
     # the nominal's own scores (the reference of every comparison)
-    score_self(h, st.data)
+    score_self(h, data)
     if use == "crossfit":
         # the nominal's held-out predictions from the folds, like every hypothesis'
-        ref = fit_hypothesis(st.spec, h, None, st.data, h)
+        ref = fit_hypothesis(_need(st.spec, "nominal spec"), h, None, data, h)
         if ref.ok:
             h.sims_val = ref.sims_val
-            score_self(h, st.data)
+            score_self(h, data)
     st.say(
         "mismatch: "
         + (
@@ -386,12 +412,14 @@ def _stage_detection(st: _Run) -> None:
 
 # ------------------------------------------------------------------ stage: location
 def _stage_location(st: _Run) -> None:
-    h = st.nominal
+    h = _need(st.nominal, "nominal fit")
+    model = _need(st.model, "model")
+    weights = _need(st.weights, "output weights")
     all_exps = [*st.tr, *st.va]
     roles = ["train"] * len(st.tr) + ["validation"] * len(st.va)
     all_sims = [*h.sims_train, *h.sims_val]
-    units = {s.name: s.unit for s in st.model.signals}
-    exo = list(st.model.exogenous_names)
+    units = {s.name: s.unit for s in model.signals}
+    exo = list(model.exogenous_names)
     sigma = {}
     for j, o in enumerate(st.outs):
         vals = [noise_sigma(e.y[:, j] - s[:, j]) for e, s in zip(all_exps, all_sims, strict=True)]
@@ -401,7 +429,7 @@ def _stage_location(st: _Run) -> None:
     if st.data is not None:
         st.data.noise = np.array([sigma[o] for o in st.outs], dtype=float)
         st.data.min_snr = float(st.opts["min_snr"])
-    scale = {o: 1.0 / float(st.weights[j]) for j, o in enumerate(st.outs)}
+    scale = {o: 1.0 / float(weights[j]) for j, o in enumerate(st.outs)}
     st.regs = regime_variables(
         [e.name for e in all_exps],
         roles,
@@ -424,7 +452,7 @@ def _stage_location(st: _Run) -> None:
     ]
     st.located = locate(st.outs, recs_loc, st.regs, sigma, scale)
     floor = sum(
-        float(st.weights[j] ** 2)
+        float(weights[j] ** 2)
         * sigma[o] ** 2
         * sum(int(np.isfinite(e.y[:, j]).sum()) for e in st.va)
         for j, o in enumerate(st.outs)
@@ -436,7 +464,7 @@ def _stage_location(st: _Run) -> None:
 # ------------------------------------------------------------------ stage: parameters
 def _stage_parameters(st: _Run) -> None:
     """Parameter or physics: whether the given parameters were off."""
-    h = st.nominal
+    h = _need(st.nominal, "nominal fit")
     if st.generic or not st.calibrated:
         st.parameters = {
             "tested": False,
@@ -445,30 +473,35 @@ def _stage_parameters(st: _Run) -> None:
             else "no identifiable parameter",
         }
         return
-    g = Hypothesis(candidates=(), model=st.model, theta=st.given.copy())
-    pb = FitProblem(st.model, (), st.given, np.zeros(0), np.zeros(0), st.tr, st.weights, st.x0)
+    model = _need(st.model, "model")
+    given = _need(st.given, "given parameters")
+    weights = _need(st.weights, "output weights")
+    data = _need(st.data, "scoring data")
+    theta = _need(h.theta, "nominal fit's values")
+    g = Hypothesis(candidates=(), model=model, theta=given.copy())
+    pb = FitProblem(model, (), given, np.zeros(0), np.zeros(0), st.tr, weights, st.x0)
     g.sims_train = [pb.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.tr))]
-    pv = FitProblem(st.model, (), st.given, np.zeros(0), np.zeros(0), st.va, st.weights, st.x0)
+    pv = FitProblem(model, (), given, np.zeros(0), np.zeros(0), st.va, weights, st.x0)
     g.sims_val = [pv.simulate(np.zeros((1, 0)), i)[0] for i in range(len(st.va))]
-    score_self(g, st.data)
+    score_self(g, data)
     st.given_h = g
     # the calibrated model against the given one: k re-calibrated parameters
-    chi2, n = whitened_chi2(residuals_of(g, st.data)[1], residuals_of(h, st.data)[1])
+    chi2, n = whitened_chi2(residuals_of(g, data)[1], residuals_of(h, data)[1])
     d = delta_ic(chi2, len(st.calibrated), n)
     better = bool(d < 0 and h.wsse_val < g.wsse_val)
     iv = intervals(
         h,
         st.calibrated,
         st.tr,
-        st.weights,
+        weights,
         st.x0,
         experiment={p: CATALOGUE["parameter_error"].experiment(p) for p in st.calibrated},
     )
     moved = {}
     for p in st.calibrated:
-        v0 = float(st.given[st.model.param_index(p)])
-        v1 = float(h.theta[st.model.param_index(p)])
-        spec_p = st.model.parameters[st.model.param_index(p)]
+        v0 = float(given[model.param_index(p)])
+        v1 = float(theta[model.param_index(p)])
+        spec_p = model.parameters[model.param_index(p)]
         row = {
             "given": v0,
             "calibrated": v1,

@@ -18,32 +18,36 @@ from thermogym.fitresult import FitResult, data_entry
 from thermogym.identification.diagnosis.effects import CATALOGUE
 from thermogym.identification.diagnosis.hypothesis import Hypothesis
 from thermogym.identification.diagnosis.report import DiagnosisReport
-from thermogym.identification.diagnosis.run_state import _Run
-from thermogym.identification.diagnosis.select import Selection, nrmse_table, shares
+from thermogym.identification.diagnosis.run_state import _need, _Run
+from thermogym.identification.diagnosis.select import Selection, _added, nrmse_table, shares
 from thermogym.identification.diagnosis.stages_nominal import _tests
+from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
 from thermogym.vocabulary import EFFECT_NAMES
 
 
 # ------------------------------------------------------------------ stage: report
 def _stage_report(st: _Run) -> DiagnosisReport:
-    h = st.nominal
+    h = _need(st.nominal, "nominal fit")
+    model = _need(st.model, "model")
+    spec = _need(st.spec, "nominal spec")
+    tests = _need(st.tests, "residual tests")
     o = st.opts
     outs = st.outs
-    exo = list(st.model.exogenous_names)
-    units = {s.name: s.unit for s in st.model.signals}
+    exo = list(model.exogenous_names)
+    units = {s.name: s.unit for s in model.signals}
     fit_before_tr = nrmse_table(outs, [e.y for e in st.tr], h.sims_train)
     fit_before_va = nrmse_table(outs, [e.y for e in st.va], h.sims_val)
     data = [data_entry(r, "train") for r in st.tr_list] + [
         data_entry(r, "validation") for r in st.va_list
     ]
     nominal_fit = _build_fit(
-        st.model,
+        model,
         h,
         method=f"diagnosis nominal ({st.method})",
         settings={
             "x0": st.x0,
-            "weights": dict(zip(outs, st.weights.tolist(), strict=True)),
+            "weights": dict(zip(outs, _need(st.weights, "output weights").tolist(), strict=True)),
             "dt": o["dt"],
             "calibrated": list(st.calibrated),
         },
@@ -51,8 +55,8 @@ def _stage_report(st: _Run) -> DiagnosisReport:
         data=data,
         notes="nominal model of thermogym diagnosis",
     )
-    tests_tr, tests_va = st.tests["train"], st.tests["validation"]
-    alpha_adj = st.tests["alpha_adj"]
+    tests_tr, tests_va = tests["train"], tests["validation"]
+    alpha_adj = tests["alpha_adj"]
     sel = st.selection or Selection()
     steps = sel.steps
     # the combination is reported largest share first: the effect that removes most of the
@@ -61,7 +65,7 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     order = sorted(range(len(steps)), key=lambda i: -(sh[i] if math.isfinite(sh[i]) else -math.inf))
     physics = []
     for i in order:
-        e = steps[i].last.effect
+        e = _added(steps[i]).effect
         if e in EFFECT_NAMES and e not in physics:
             physics.append(e)
     par = st.parameters
@@ -76,8 +80,8 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     else:
         named = ["none"]
     report = DiagnosisReport(
-        model=st.spec.name,
-        model_config=st.spec.config(),
+        model=spec.name,
+        model_config=spec.config(),
         outputs=list(outs),
         exogenous=exo,
         units=units,
@@ -85,11 +89,11 @@ def _stage_report(st: _Run) -> DiagnosisReport:
         alpha=o["alpha"],
         detection={
             "train": {
-                x: {**t.to_dict(alpha_adj), "significant": st.tests["sig_tr"][x]}
+                x: {**t.to_dict(alpha_adj), "significant": tests["sig_tr"][x]}
                 for x, t in tests_tr.items()
             },
             "validation": {
-                x: {**t.to_dict(alpha_adj), "significant": st.tests["sig_va"][x]}
+                x: {**t.to_dict(alpha_adj), "significant": tests["sig_va"][x]}
                 for x, t in tests_va.items()
             },
             "alpha_per_test": alpha_adj,
@@ -135,7 +139,7 @@ def _stage_report(st: _Run) -> DiagnosisReport:
     if steps:
         final = steps[-1]
         for s, share in ((steps[i], sh[i]) for i in order):
-            c = s.last
+            c = _added(s)
             report.combination.append(
                 {
                     "effect": c.effect,
@@ -160,15 +164,14 @@ def _stage_report(st: _Run) -> DiagnosisReport:
             )
         first = steps[0]
         top = steps[order[0]]
+        top_c = _added(top)
         report.alternatives = _alternatives(first, sel, physics)
         report.best = {
-            "effect": top.last.effect,
-            "form": top.last.form,
-            "target": top.last.target,
-            "explanation": CATALOGUE[top.last.effect].explanation
-            if top.last.effect in CATALOGUE
-            else "",
-            "evidence": top.last.evidence,
+            "effect": top_c.effect,
+            "form": top_c.form,
+            "target": top_c.target,
+            "explanation": CATALOGUE[top_c.effect].explanation if top_c.effect in CATALOGUE else "",
+            "evidence": top_c.evidence,
             "params": final.params_table([p for p in final.extra]),
             "fit_before": fit_before_tr,
             "fit_after": final.fit_after,
@@ -250,13 +253,14 @@ def _alternatives(
     return out
 
 
-def _finalise(report: DiagnosisReport, final: Hypothesis, st: _Run, data: list) -> None:
-    from thermogym.models.augmented import AugmentedModel
-
+def _finalise(
+    report: DiagnosisReport, final: Hypothesis, st: _Run, data: list[dict[str, Any]]
+) -> None:
+    spec = _need(st.spec, "nominal spec")
     o = st.opts
     outs = st.outs
-    exo = list(st.model.exogenous_names)
-    alpha_adj = st.tests["alpha_adj"]
+    exo = list(_need(st.model, "model").exogenous_names)
+    alpha_adj = _need(st.tests, "residual tests")["alpha_adj"]
     tests_tr = _tests(outs, st.tr, final.sims_train, o["alpha"], o["max_lag"], exo)
     tests_va = _tests(outs, st.va, final.sims_val, o["alpha"], o["max_lag"], exo)
     report.detection_after = {
@@ -266,8 +270,8 @@ def _finalise(report: DiagnosisReport, final: Hypothesis, st: _Run, data: list) 
     report.tests_after = {"train": tests_tr, "validation": tests_va}
     for s, sim in zip(report.series, [*final.sims_train, *final.sims_val], strict=True):
         s["augmented"] = sim
-    model = final.model
-    theta = final.theta
+    model = _need(final.model, "kept hypothesis' model")
+    theta = _need(final.theta, "kept hypothesis' values")
     if isinstance(model, AugmentedModel) and any(
         a["effect"] == "transport_delay" for a in model.augmentations
     ):
@@ -279,9 +283,9 @@ def _finalise(report: DiagnosisReport, final: Hypothesis, st: _Run, data: list) 
                 pname = ("delay_out_" if a.get("form") == "output" else "delay_") + a["signal"]
                 d = float(theta[model.param_index(pname)])
                 a["history"] = math.ceil(d / dtm) + 2
-        base = model.base if not st.spec.registered else cfg["base"]
+        base = model.base if not spec.registered else cfg["base"]
         model2 = AugmentedModel(
-            base, None if not st.spec.registered else cfg["base_config"], cfg["augmentations"]
+            base, None if not spec.registered else cfg["base_config"], cfg["augmentations"]
         )
         theta = np.array(
             [
@@ -310,7 +314,7 @@ def _finalise(report: DiagnosisReport, final: Hypothesis, st: _Run, data: list) 
             "targets": [c.target for c in final.candidates],
             "x0": st.x0,
             "scheme": report.scheme,
-            "nominal_model": st.spec.name,
+            "nominal_model": spec.name,
             "local_parameters_neutral": list(final.local),
         },
         metrics={
