@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from thermogym._checks import in_range, integer
 from thermogym.errors import ConfigError, RecordingError
 
 __all__ = [
@@ -139,10 +140,10 @@ def _as_bool(key: str, v: Any) -> bool:
 def _as_number(key: str, v: Any, lo: float, *, open_: bool, whole: bool = False) -> Any:
     if isinstance(v, bool) or not isinstance(v, int | float):
         raise ConfigError(f"--prepare {key}={v!r}: expected a number")
-    if not math.isfinite(v) or v < lo or (open_ and v == lo) or (whole and v != int(v)):
-        kind = "a whole number" if whole else "a number"
-        raise ConfigError(f"--prepare {key}={v!r}: expected {kind} {'>' if open_ else '>='} {lo:g}")
-    return int(v) if whole else float(v)
+    if whole:
+        least = math.floor(lo) + 1 if open_ else math.ceil(lo)
+        return integer(f"--prepare {key}", v, lo=least, error=ConfigError)
+    return in_range(f"--prepare {key}", v, lo, lo_open=open_, error=ConfigError, text=False)
 
 
 def _as_names(key: str, v: Any) -> tuple[str, ...]:

@@ -23,11 +23,11 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import math
 import sys
 from pathlib import Path
 from typing import Any
 
+from thermogym._checks import finite
 from thermogym._cli.common import (
     CliParser,
     Interrupted,
@@ -179,13 +179,7 @@ def build_parser(method: str) -> argparse.ArgumentParser:
 
 
 def _number(text: str, what: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise ConfigError(f"{what} is {text!r}, expected a number") from None
-    if not math.isfinite(x):
-        raise ConfigError(f"{what} is {text!r}, expected a finite number")
-    return x
+    return finite(what, text, error=ConfigError)
 
 
 def _free_specs(items: list[str], log: list[str]) -> dict[str, Any]:

@@ -363,11 +363,13 @@ class Controller(abc.ABC):
         if loop is not None and not isinstance(loop, Loop):
             raise ConfigError(f"{type(self).__name__}: loop is {loop!r:.60}; expected a Loop")
         if sample_time is not None:
-            _num(type(self).__name__, "sample_time", sample_time, lo=0.0)
-            if sample_time <= 0:
-                raise ConfigError(
-                    f"{type(self).__name__}: sample_time is {sample_time!r}; expected > 0 s"
-                )
+            positive(
+                f"{type(self).__name__}: sample_time",
+                sample_time,
+                unit="s",
+                error=ConfigError,
+                text=False,
+            )
         self.loop = loop
         self.sample_time = sample_time
         self._info: EnvInfo | None = None

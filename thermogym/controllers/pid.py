@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import finite, nonnegative, positive
 from thermogym.controllers.base import Controller, EnvInfo, Loop, _num
 from thermogym.errors import ConfigError, ParameterError
 from thermogym.fitresult import FitResult, load_fit
@@ -100,16 +101,11 @@ class FOPTD:
     fingerprint: str | None = None
 
     def __post_init__(self) -> None:
-        for name in ("K", "T", "tau"):
-            v = getattr(self, name)
-            if not math.isfinite(v):
-                raise ParameterError(f"FOPTD {name} is {v!r}; expected a finite number")
+        finite("FOPTD K", self.K, text=False)
+        positive("FOPTD T", self.T, unit="s", text=False)
+        nonnegative("FOPTD tau", self.tau, unit="s", text=False)
         if self.K == 0:
             raise ParameterError("FOPTD gain K is 0; the input does not act on the output")
-        if self.T <= 0 or self.tau < 0:
-            raise ParameterError(
-                f"FOPTD T = {self.T!r} s, tau = {self.tau!r} s; expected T > 0 and tau >= 0"
-            )
 
 
 def _pick(names: tuple[str, ...], want: str | None, what: str, model: str) -> int:
@@ -380,9 +376,9 @@ def lambda_tuning(
     (0.8333, 600.0)
     """
     f, K, T, theta = _model_for_tuning(model, input_scale, extra_delay, input, output)
-    lam_v = T if lam is None else _num("lambda_tuning", "lam", lam, lo=0.0)
-    if lam_v <= 0:
-        raise ConfigError(f"lambda_tuning: lam is {lam!r}; expected > 0 s")
+    lam_v = T
+    if lam is not None:
+        lam_v = positive("lambda_tuning: lam", lam, unit="s", error=ConfigError, text=False)
     if derivative:
         kp = (T + theta / 2.0) / (K * (lam_v + theta / 2.0))
         ti = T + theta / 2.0

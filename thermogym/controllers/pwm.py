@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import positive
 from thermogym.controllers.base import Controller, EnvInfo, Loop, _num, whole_periods
 from thermogym.errors import ConfigError
 
@@ -105,9 +106,7 @@ class PWM(Controller):
             period = PWM_PERIODS[period]
         else:
             self.frequency = None
-        self.period = _num(who, "period", period, lo=0.0)
-        if self.period <= 0:
-            raise ConfigError(f"{who}: period is {period!r}; expected > 0 s")
+        self.period = positive(f"{who}: period", period, unit="s", error=ConfigError, text=False)
         if (duty is None) == (inner is None):
             raise ConfigError(
                 f"{who}: give exactly one of duty (open loop) and inner (a controller)"

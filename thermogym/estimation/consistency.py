@@ -10,8 +10,8 @@ import numpy as np
 import scipy.stats
 from numpy.typing import ArrayLike, NDArray
 
-from thermogym._checks import probability
-from thermogym.errors import ParameterError, ShapeError
+from thermogym._checks import integer, probability
+from thermogym.errors import ShapeError
 
 __all__ = ["ConsistencyReport", "consistency", "normalized_error_squared"]
 
@@ -144,8 +144,7 @@ def consistency(values: ArrayLike, dof: int, *, alpha: float = 0.05) -> Consiste
     """
     v = np.asarray(values, dtype=float).reshape(-1)
     v = v[~np.isnan(v)]  # inf (an impossible error) stays and fails the test
-    if int(dof) != dof or dof < 1:
-        raise ParameterError(f"dof is {dof!r}; expected a positive integer")
+    dof = integer("dof", dof, lo=1)
     probability("alpha", alpha, text=False)
     N = v.size
     if N < 2:

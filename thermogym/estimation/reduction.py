@@ -6,6 +6,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import integer
 from thermogym.errors import ConfigError, ParameterError
 from thermogym.estimation._linalg import _mat, _spectral_radius
 
@@ -86,8 +87,7 @@ def balanced_truncation(
     Ca = _mat("C", Ca, (Ca.shape[0] if Ca.ndim == 2 else -1, n))
     p, m = Ca.shape[0], Ba.shape[1]
     Da = np.zeros((p, m)) if D is None else _mat("D", D, (p, m))
-    if int(order) != order or not 1 <= order <= n:
-        raise ParameterError(f"order is {order!r}; expected an integer in 1..{n}")
+    order = integer("order", order, lo=1, hi=n)
     if method not in ("truncate", "residualize"):
         raise ConfigError(f"method is {method!r}; expected 'truncate' or 'residualize'")
     rho = _spectral_radius(Aa)

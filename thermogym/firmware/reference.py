@@ -40,6 +40,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import integer
 from thermogym.errors import ConfigError, ParameterError
 from thermogym.estimation import balanced_truncation
 from thermogym.models.base import ThetaLike
@@ -199,8 +200,7 @@ def random_stable_model(
     >>> m.n_states, bool(m.is_stable()[0])
     (20, True)
     """
-    if int(n) != n or n < 1:
-        raise ParameterError(f"n is {n!r}; expected a positive integer")
+    n = integer("n", n, lo=1)
     rng = np.random.default_rng(seed)
     tau = np.exp(rng.uniform(np.log(fastest_s), np.log(slowest_s), n))
     lam = np.exp(-dt / tau)

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from thermogym._checks import nonnegative
 from thermogym.errors import ConfigError
 
 __all__ = [
@@ -127,8 +128,7 @@ def parsimonious_index(scores: ArrayLike, tolerance: float = DEFAULT_TOLERANCE) 
     s = np.asarray(scores, dtype=float)
     if s.ndim != 1 or s.size == 0:
         raise ConfigError(f"scores has shape {s.shape}, expected a non-empty 1-D array")
-    if not (math.isfinite(tolerance) and tolerance >= 0):
-        raise ConfigError(f"tolerance = {tolerance!r}, expected a finite number >= 0")
+    nonnegative("tolerance", tolerance, error=ConfigError, text=False)
     safe = np.where(np.isfinite(s), s, -np.inf)
     if not np.isfinite(safe).any():
         return 0

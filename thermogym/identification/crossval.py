@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym._checks import integer
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.identification.advice import FitWarning, check_order, parsimonious_index
 from thermogym.identification.metrics import nrmse, train_validation_accuracy
@@ -158,8 +159,7 @@ def split_recording(rec: Recording, k: int) -> list[Recording]:
     >>> [(p.experiment_id, p.n_samples) for p in split_recording(rec, 3)]
     [('run-part1', 3), ('run-part2', 4), ('run-part3', 3)]
     """
-    if int(k) != k or k < 2:
-        raise ConfigError(f"k is {k!r}; expected a whole number >= 2")
+    k = integer("k", k, lo=2, error=ConfigError)
     if rec.n_samples < 2 * k:
         raise IdentificationError(f"{rec.n_samples} samples cannot be cut into {k} parts")
     edges = np.linspace(0, rec.n_samples, int(k) + 1).round().astype(int)
@@ -215,9 +215,7 @@ def split_excited(
     >>> [p.n_samples for p in split_excited(rec, 2, ["u"])]
     [45, 55]
     """
-    if int(k) != k or k < 2:
-        raise ConfigError(f"k is {k!r}; expected a whole number >= 2")
-    k = int(k)
+    k = integer("k", k, lo=2, error=ConfigError)
     n = rec.n_samples
     missing = [c for c in inputs if c not in rec.columns]
     if missing:
@@ -313,9 +311,7 @@ def make_folds(
     folds : list of list of Recording, or None
     notes : list of str
     """
-    if int(k) != k or k < 2:
-        raise ConfigError(f"--folds {k!r}: expected a whole number >= 2")
-    k = int(k)
+    k = integer("--folds", k, lo=2, error=ConfigError)
     recs = list(recordings)
     if not recs:
         raise ConfigError("no recording to cross-validate on")

@@ -42,7 +42,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from thermogym._checks import positive
+from thermogym._checks import finite, nonnegative, positive
 from thermogym.errors import (
     ConfigError,
     ExternalModelError,
@@ -106,11 +106,8 @@ class SignalPair:
             raise ConfigError(
                 f"weight of signal pair {self.measured!r} is {w!r}, expected a number"
             )
-        if not (math.isfinite(float(w)) and float(w) >= 0):
-            raise ParameterError(
-                f"weight of signal pair {self.measured!r} is {w!r}, expected a finite number >= 0"
-            )
-        object.__setattr__(self, "weight", float(w))
+        w = nonnegative(f"weight of signal pair {self.measured!r}", w, text=False)
+        object.__setattr__(self, "weight", w)
 
     @property
     def label(self) -> str:
@@ -415,9 +412,7 @@ class Problem:
         self.fixed: dict[str, float] = {}
         for k, v in dict(fixed or {}).items():
             j = self._check_param(k, "fixed parameter")
-            val = _number(v, f"fixed value of {k!r}")
-            if not math.isfinite(val):
-                raise ParameterError(f"fixed value of {k!r} is {val!r}, expected a finite number")
+            val = finite(f"fixed value of {k!r}", _number(v, f"fixed value of {k!r}"))
             base[j] = val
             self.fixed[k] = val
         ratios = tuple(ratios)
@@ -484,9 +479,7 @@ class Problem:
             col = []
             for t in r.targets:
                 j = self._sim_index[t]
-                e = _number(est.get(t, base[j]), f"estimate of {t!r}")
-                if not math.isfinite(e):
-                    raise ParameterError(f"estimate of {t!r} is {e!r}, expected a finite number")
+                e = finite(f"estimate of {t!r}", _number(est.get(t, base[j]), f"estimate of {t!r}"))
                 self.estimates[t] = e
                 col.append((j, e))
             if r.name in self._sim_index and r.name not in r.targets:

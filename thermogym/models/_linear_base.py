@@ -17,6 +17,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import ConfigError, ParameterError, ShapeError
 from thermogym.models.base import Model, Signal, Simulation, ThetaLike
 
@@ -85,9 +86,7 @@ def _wide(v: float) -> tuple[float, float]:
 
 
 def _period(dt: float, what: str) -> float:
-    if not (np.isfinite(dt) and dt > 0):
-        raise ShapeError(f"{what}: dt is {dt!r}, expected a positive sample period in seconds")
-    return float(dt)
+    return positive(f"{what}: dt", dt, unit="s", error=ShapeError, text=False)
 
 
 def _vector(
@@ -351,8 +350,7 @@ def c2d_zoh(
     Ba = np.asarray(B, dtype=float)
     m = Ba.shape[1] if Ba.ndim == 2 else -1
     Ba = _matrix("B", Ba, (n, m), "n_states, n_inputs")
-    if not (np.isfinite(dt) and dt > 0):
-        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    positive("dt", dt, unit="s", text=False)
     M = np.zeros((n + m, n + m))
     M[:n, :n] = Aa * dt
     M[:n, n:] = Ba * dt
@@ -401,8 +399,7 @@ def d2c_zoh(
     Ba = np.asarray(B, dtype=float)
     m = Ba.shape[1] if Ba.ndim == 2 else -1
     Ba = _matrix("B", Ba, (n, m), "n_states, n_inputs")
-    if not (np.isfinite(dt) and dt > 0):
-        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    positive("dt", dt, unit="s", text=False)
     lam = np.linalg.eigvals(Aa)
     bad = (np.abs(lam.imag) <= 1e-12 * np.maximum(1.0, np.abs(lam))) & (lam.real <= 0)
     if bad.any():

@@ -9,6 +9,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import ConfigError, ParameterError, ShapeError, SimulationError
 from thermogym.models._linear_base import (
     _PROV_FOPTD,
@@ -33,8 +34,7 @@ def _foptd_arrays(
     K: ArrayLike, T: ArrayLike, tau: ArrayLike, dt: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     Ka, Ta, ta = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (K, T, tau)))
-    if not (np.isfinite(dt) and dt > 0):
-        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    positive("dt", dt, unit="s", text=False)
     for name, v in (("K", Ka), ("T", Ta), ("tau", ta)):
         if not np.isfinite(v).all():
             raise ParameterError(f"{name} contains {v[~np.isfinite(v)].flat[0]!r}; expected finite")
@@ -190,8 +190,7 @@ def discrete_to_foptd(
     [2.0, 9.4912, 3.0]
     """
     aa, ba, da = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (a, b, d)))
-    if not (np.isfinite(dt) and dt > 0):
-        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    positive("dt", dt, unit="s", text=False)
     bad = ~((aa > 0) & (aa < 1))
     if bad.any():
         raise ParameterError(

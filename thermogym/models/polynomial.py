@@ -74,7 +74,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from thermogym._checks import choice
+from thermogym._checks import choice, positive
 from thermogym.errors import ConfigError, ShapeError, SimulationError
 from thermogym.models._linear_base import (
     _broadcast_batch,
@@ -205,8 +205,7 @@ class PolynomialModel(Model):
         ins, dis, outs, full_units, signals = _make_signals(
             inputs, disturbances, outputs, units, f"{structure.upper()} model"
         )
-        if not (np.isfinite(dt) and dt > 0):
-            raise ConfigError(f"dt is {dt!r}; expected a positive sample period in seconds")
+        positive("dt", dt, unit="s", error=ConfigError, text=False)
         exo = ins + dis
         p, m = len(outs), len(exo)
         o = PolynomialOrders(
@@ -577,8 +576,7 @@ class PolynomialModel(Model):
 
 def _whole_steps(dt: float, model_dt: float, what: str) -> int:
     """``dt / model_dt`` as a whole number of model steps, or :class:`ShapeError`."""
-    if not (np.isfinite(dt) and dt > 0):
-        raise ShapeError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    positive(f"{what}: dt", dt, unit="s", error=ShapeError, text=False)
     r = dt / model_dt
     n = round(r)
     if n < 1 or abs(r - n) > 1e-9 * max(r, 1.0):

@@ -59,6 +59,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import positive
 from thermogym.errors import ConfigError, ParameterError, ShapeError
 from thermogym.models._linear_base import _compact, _make_signals, _transposed, _wide
 from thermogym.models._linear_kernels import _ss_simulate_kernel
@@ -112,8 +113,7 @@ def sopdt_zoh(
     ([2.0, 2.0], 4)
     """
     Ka, T1a, T2a, ta = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (K, T1, T2, tau)))
-    if not (np.isfinite(dt) and dt > 0):
-        raise ParameterError(f"dt is {dt!r}, expected a positive sample period in seconds")
+    positive("dt", dt, unit="s", text=False)
     for name, v in (("K", Ka), ("T1", T1a), ("T2", T2a), ("tau", ta)):
         if not np.isfinite(v).all():
             raise ParameterError(f"{name} contains {v[~np.isfinite(v)].flat[0]!r}; expected finite")

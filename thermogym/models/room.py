@@ -185,6 +185,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import in_range
 from thermogym._jitcache import module_kernels_depend_on
 from thermogym.errors import ConfigError, ParameterError, ShapeError
 from thermogym.models import axt211_dynamics as ax
@@ -345,8 +346,7 @@ def valve_flow(
     [0.0, 0.2, 1.0]
     """
     kind = _valve_kind(valve)
-    if not (np.isfinite(rangeability) and rangeability > 1.0):
-        raise ParameterError(f"rangeability is {rangeability!r}; expected a number above 1")
+    in_range("rangeability", rangeability, 1.0, lo_open=True, text=False)
     ha = np.asarray(h, dtype=float)
     out = np.array([_valve(float(v), float(rangeability), kind) for v in ha.ravel()])
     return out.reshape(ha.shape)

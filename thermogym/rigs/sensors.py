@@ -58,7 +58,7 @@ import numba as nb
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from thermogym._checks import choice, nonnegative
+from thermogym._checks import choice, nonnegative, positive
 from thermogym.errors import ShapeError
 
 __all__ = ["N_RANDOM", "Sensor", "SensorSpec", "SensorStream"]
@@ -126,9 +126,7 @@ class Sensor:
         ):  # fmt: skip
             nonnegative(f"Sensor.{name}", getattr(self, name))
         if self.colored > 0:
-            nonnegative("Sensor.colored_tau", self.colored_tau)
-            if self.colored_tau <= 0:
-                raise ShapeError(f"Sensor.colored_tau = {self.colored_tau!r} s, expected > 0")
+            positive("Sensor.colored_tau", self.colored_tau, unit="s")
         choice("Sensor.dropout", self.dropout, ("nan", "hold"))
         if not (len(self.span) == 2 and self.span[0] < self.span[1]):
             raise ShapeError(f"Sensor.span = {self.span!r}, expected (low, high) with low < high")
