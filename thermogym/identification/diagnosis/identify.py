@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from thermogym.identification.diagnosis.fit import Experiment, FitProblem
+from thermogym.identification.diagnosis.experiments import Experiment
+from thermogym.identification.diagnosis.fit import FitProblem
 from thermogym.identification.diagnosis.hypothesis import Hypothesis
 
 __all__ = ["intervals"]

@@ -29,8 +29,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError
+from thermogym.identification.diagnosis.experiments import Experiment
 from thermogym.identification.diagnosis.fit import (
-    Experiment,
     FitOutcome,
     FitProblem,
     fit_model,

@@ -42,10 +42,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym.identification.diagnosis.experiments import Experiment
 from thermogym.identification.diagnosis.fit import (
     LOCAL_GROUP,
     STOPPED,
-    Experiment,
     FitProblem,
     fit_model,
 )
