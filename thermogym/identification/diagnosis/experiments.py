@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import RecordingError
+from thermogym.identification.prepare import resample
 from thermogym.models.base import Model
 from thermogym.recording import Recording
 
@@ -156,7 +157,6 @@ def _uniform(rec: Recording, notes: list[str]) -> Recording:
             f"recording {rec.experiment_id!r} has gaps (largest step {float(d.max())!r} s, median "
             f"{step!r} s); prepare it first (thermogym.identification.prepare)"
         )
-    from thermogym.identification.prepare import resample
 
     out, _ = resample(rec, step, t_start=float(rec.time[0]))
     notes.append(

@@ -56,6 +56,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.stats import qmc
 
 from thermogym.errors import IdentificationError, ShapeError
 from thermogym.identification.diagnosis.experiments import Experiment
@@ -70,6 +71,7 @@ from thermogym.identification.diagnosis.initial_states import (
     state_directions,
 )
 from thermogym.identification.optimizers.local import box_least_squares
+from thermogym.identification.uncertainty import covariance_from_jacobian
 from thermogym.models.base import Model
 
 __all__ = [
@@ -447,8 +449,6 @@ def sobol_starts(lower: NDArray[np.float64], upper: NDArray[np.float64], n: int,
     >>> s.shape, bool(((s >= [0, 1]) & (s <= [1, 1000])).all())
     ((4, 2), True)
     """
-    from scipy.stats import qmc
-
     lo, hi = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     k = lo.size
     if n <= 0 or k == 0:
@@ -668,8 +668,6 @@ def _outcome(
 
 
 def _covariance(J: NDArray[np.float64], r: NDArray[np.float64]) -> tuple[Any, NDArray[np.float64]]:
-    from thermogym.identification.uncertainty import covariance_from_jacobian
-
     try:
         cov, se, *_ = covariance_from_jacobian(J, r, block=None)
     except ShapeError:

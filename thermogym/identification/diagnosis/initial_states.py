@@ -28,7 +28,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
+from thermogym.models.fastnet import ExtraNodeNetwork, SwitchedNetwork
+from thermogym.models.thermal_network import ThermalNetworkModel, network_matrices
 
 __all__ = ["initial_states", "network_directions", "state_directions"]
 
@@ -39,9 +42,6 @@ _TEMPERATURE_UNITS = ("°C", "K", "degC")
 def _network_x0(
     model: Any, theta: NDArray[np.float64], u0: NDArray[np.float64], first: Mapping[str, float]
 ) -> NDArray[np.float64] | None:
-    from thermogym.models.fastnet import SwitchedNetwork
-    from thermogym.models.thermal_network import ThermalNetworkModel, network_matrices
-
     if isinstance(model, SwitchedNetwork):
         model = model.plant
     if not isinstance(model, ThermalNetworkModel):
@@ -98,8 +98,6 @@ def initial_states(
     -------
     ndarray, shape (B, n_x)
     """
-    from thermogym.models.augmented import AugmentedModel
-
     if isinstance(model, AugmentedModel):
         nb = len(model.base.parameters)
         xb = initial_states(model.base, theta[:, :nb], u0, first, policy)
@@ -121,10 +119,6 @@ def network_directions(
     model: Any, theta: NDArray[np.float64], u0: NDArray[np.float64], outputs: Sequence[str]
 ) -> NDArray[np.float64] | None:
     """Harmonic initial-state directions of a thermal network's measured nodes, or None."""
-    from thermogym.models.augmented import AugmentedModel
-    from thermogym.models.fastnet import ExtraNodeNetwork, SwitchedNetwork
-    from thermogym.models.thermal_network import ThermalNetworkModel
-
     if isinstance(model, AugmentedModel):
         nb = len(model.base.parameters)
         d = network_directions(model.base, theta[:, :nb], u0, outputs)
@@ -161,8 +155,6 @@ def state_directions(model: Model, x_rest: NDArray[np.float64]) -> NDArray[np.fl
 
     The unit is 1, or 1e-3 of a large state value.
     """
-    from thermogym.models.augmented import AugmentedModel
-
     scale = np.maximum(1.0, 1e-3 * np.abs(x_rest[0]))
     dirs = np.diag(scale)
     if isinstance(model, AugmentedModel):

@@ -28,6 +28,7 @@ import numpy as np
 from thermogym.identification.diagnosis.context import Context
 from thermogym.identification.diagnosis.fit import sobol_starts
 from thermogym.identification.diagnosis.hypothesis import Candidate
+from thermogym.models.thermal_network import ThermalNetworkModel
 
 __all__ = ["course_baseline", "generic_fix", "propose"]
 
@@ -628,8 +629,6 @@ def _parallel_path(ctx: Context, n_params: int | None = None) -> list[Candidate]
 
 def _network_node(ctx: Context) -> list[Candidate]:
     """A heat capacity at a measured node of a linear RC network (fast exact simulation)."""
-    from thermogym.models.thermal_network import ThermalNetworkModel
-
     m = ctx.model
     if not isinstance(m, ThermalNetworkModel) or m.effects:
         return []
