@@ -28,7 +28,6 @@ from numpy.typing import NDArray
 from thermogym._checks import integer, probability
 from thermogym.errors import ConfigError, RecordingError
 from thermogym.fitresult import FitResult, load_fit
-from thermogym.identification.diagnosis.residuals import residual_tests
 from thermogym.identification.linear_fit import LINEAR_MODELS, X0_CHOICES, predict
 from thermogym.identification.metrics import nrmse
 from thermogym.recording import Recording
@@ -269,6 +268,10 @@ def resid(
     dict
         Output name → :class:`~thermogym.identification.diagnosis.residuals.ResidualTest`.
     """
+    # importing the residual tests runs the diagnosis package's __init__ (~0.4 s, 50 modules):
+    # only resid needs them, not compare
+    from thermogym.identification.diagnosis.residuals import residual_tests
+
     max_lag = integer("max_lag", max_lag, lo=1, error=ConfigError)
     alpha = probability("alpha", alpha, error=ConfigError)
     fit = load_fit(fit)
