@@ -13,7 +13,7 @@ from thermogym.errors import ConfigError, RecordingError, UnknownNameError
 from thermogym.fitresult import FitResult
 from thermogym.identification.diagnosis import CATALOGUE, diagnose
 from thermogym.identification.diagnosis.effects import Context, signatures
-from thermogym.identification.diagnosis.fit import decimate
+from thermogym.identification.diagnosis.experiments import decimate
 from thermogym.identification.diagnosis.locate import locate, regime_variables
 from thermogym.recording import Recording
 from thermogym.rigs import get_rig, to_recording

@@ -6,12 +6,8 @@ import numpy as np
 import pytest
 from _diag_plants import TRUE, NodeModel, node_recordings
 
-from thermogym.identification.diagnosis.fit import (
-    FitProblem,
-    fit_model,
-    prepare_experiments,
-    sobol_starts,
-)
+from thermogym.identification.diagnosis.experiments import prepare_experiments
+from thermogym.identification.diagnosis.fit import FitProblem, fit_model, sobol_starts
 from thermogym.identification.diagnosis.scoring import ar_filter, delta_ic, whitened_chi2
 from thermogym.identification.optimizers.local import box_least_squares
 from thermogym.models.augmented import AugmentedModel

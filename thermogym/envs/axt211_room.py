@@ -166,6 +166,7 @@ from thermogym.envs._room_kernels import (
 )
 from thermogym.envs.kpis import _rainflow_tp, tp_finish, wax_cycle_kpis
 from thermogym.envs.profiles import synthetic_weather
+from thermogym.envs.weather import weather_table
 from thermogym.errors import ConfigError
 from thermogym.models import room_dynamics as rd
 from thermogym.models.room import RoomModel
@@ -301,7 +302,8 @@ class _RoomEngine(Engine):
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
         specimen = None
         if cfg.plant == "rig" and cfg.specimen_seed is not None:
-            # the actuator drawn from the AXT211 spread (as AXT211Valve's), the room nominal
+            # the actuator drawn from the AXT211 spread (as AXT211Valve's), the room nominal;
+            # the rigs (~0.4 s) load only for plant='rig'
             from thermogym.rigs.axt211 import specimen_spread
             from thermogym.rigs.room import RoomPlant
 
@@ -327,8 +329,6 @@ class _RoomEngine(Engine):
             n_h = math.ceil(self._horizon * T / 3600.0) + 26
             self.tab = np.zeros((B, 2, n_h))
         else:
-            from thermogym.envs.weather import weather_table
-
             self.shared_tab = weather_table(cfg.weather)[None]
             self.tab = self.shared_tab
         sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)

@@ -91,6 +91,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
@@ -632,8 +633,6 @@ def make_env(**kwargs: Any) -> Any:
     """Entry point: the generic environment, or the plant's own for a nonlinear fit."""
     model = _fit_model(kwargs)
     if model in DELEGATES:
-        import gymnasium as gym
-
         return gym.make(DELEGATES[model], **kwargs).unwrapped
     return IdentifiedPlantEnv(**kwargs)
 
@@ -642,8 +641,6 @@ def make_vector_env(num_envs: int = 1, **kwargs: Any) -> Any:
     """Vector entry point (delegating like :func:`make_env`)."""
     model = _fit_model(kwargs)
     if model in DELEGATES:
-        import gymnasium as gym
-
         return gym.make_vec(
             DELEGATES[model], num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs
         )

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from thermogym._checks import integer
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.identification.advice import FitWarning, check_order, parsimonious_index
+from thermogym.identification.linear_fit import operating_point
 from thermogym.identification.metrics import nrmse, train_validation_accuracy
 from thermogym.identification.n4sid import N4SIDProblem, n4sid_decompose, prepare_problem
 from thermogym.recording import Recording
@@ -374,8 +375,6 @@ def deviation_recordings(
     >>> dev["y"].tolist(), split_recording(dev, 2)[1]["y"].tolist()
     ([0.0, 1.0, 2.0, 3.0], [2.0, 3.0])
     """
-    from thermogym.identification.linear_fit import operating_point
-
     recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
     ins = [inputs] if isinstance(inputs, str) else list(inputs)
     outs = [outputs] if isinstance(outputs, str) else list(outputs)

@@ -387,8 +387,6 @@ def _oe_search(
 
     ``xatol`` is the tolerance on ``ln T`` (1e-2: the time constant to 1 %).
     """
-    from scipy.optimize import minimize_scalar
-
     n_max = max(u.shape[0] for u in us)
     lo, hi = np.log(0.1), np.log(10.0 * n_max)
 

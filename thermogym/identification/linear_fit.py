@@ -37,6 +37,7 @@ from thermogym.fitresult import FitResult, data_entry, load_fit
 from thermogym.identification.metrics import fit_report
 from thermogym.identification.prepare import check_identification_data
 from thermogym.models.linear import X0_MODES, FOPTDModel, StateSpaceModel
+from thermogym.models.process import discrete_realization
 from thermogym.recording import Recording
 
 __all__ = [
@@ -314,8 +315,6 @@ def _realized(
     y_op: NDArray[np.float64] | None,
 ) -> tuple[StateSpaceModel, NDArray[np.float64]]:
     """A polynomial or SOPDT fit as a deterministic :class:`StateSpaceModel`."""
-    from thermogym.models.process import discrete_realization
-
     period = dt or getattr(model, "dt", None) or fit.settings.get("dt")
     if period is None:
         raise ConfigError(f"the {fit.model} fit stores no sample period; give dt")

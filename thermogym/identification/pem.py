@@ -59,7 +59,7 @@ import numpy as np
 
 from thermogym._checks import choice, integer
 from thermogym.errors import ConfigError
-from thermogym.fitresult import FitResult
+from thermogym.fitresult import FitResult, load_fit
 from thermogym.identification._pem_arx import arx_ls
 from thermogym.identification._pem_fit import (
     PEMResult,
@@ -300,8 +300,6 @@ def refine(
         A FitResult of method ``"ssest"`` whose settings keep the N4SID
         settings under ``"n4sid"``.
     """
-    from thermogym.fitresult import load_fit
-
     t0 = time.perf_counter()
     fit = load_fit(fit)
     focus = choice("focus", focus, FOCUS, error=ConfigError)

@@ -48,7 +48,8 @@ from thermogym.identification.crossval import (
     deviation_recordings,
     split_recording,
 )
-from thermogym.identification.n4sid import n4sid
+from thermogym.identification.linear_fit import data_entries, evaluate_fit
+from thermogym.identification.n4sid import n4sid, n4sid_decompose
 from thermogym.identification.pem import pem, refine, simulation_fit, sopdt
 from thermogym.models.linear import StateSpaceModel
 from thermogym.recording import Recording
@@ -453,8 +454,6 @@ def identify_auto(
     fit = res.fit
     vals = [validate] if isinstance(validate, Recording) else list(validate)
     if vals:
-        from thermogym.identification.linear_fit import data_entries, evaluate_fit
-
         fit.metrics["validation"] = evaluate_fit(fit, vals)
         fit.data = data_entries(prob.recordings, vals)
     fit.settings["auto"] = {
@@ -541,8 +540,6 @@ def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
     """Fold fitter of a fixed state-space structure (order, feedthrough, delay)."""
 
     def fit(us: list[NDArray[np.float64]], ys: list[NDArray[np.float64]]) -> Any:
-        from thermogym.identification.n4sid import n4sid_decompose
-
         d = int(st["input_delay"])
         us_d = [np.r_[np.zeros((d, u.shape[1])), u[: u.shape[0] - d]] if d else u for u in us]
         dec = n4sid_decompose(us_d, ys, prob.dt, max_order=int(st["order"]))

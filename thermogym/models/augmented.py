@@ -100,6 +100,8 @@ from thermogym.models._augment_kinds import AUGMENTATIONS, kind_of
 from thermogym.models._augment_loop import _Loop
 from thermogym.models._augment_plant import RESIDUAL_TERMS, term_tag
 from thermogym.models.base import Model
+from thermogym.models.fastnet import ExtraNodeNetwork
+from thermogym.models.registry import get_model, model_names, register_model
 
 __all__ = [
     "AUGMENTATIONS",
@@ -170,8 +172,6 @@ class AugmentedModel(Model):
         base_config: Mapping[str, Any] | None = None,
         augmentations: Sequence[Mapping[str, Any]] = (),
     ) -> None:
-        from thermogym.models.registry import get_model
-
         if isinstance(base, Model):
             if isinstance(base, AugmentedModel):
                 raise ConfigError("an augmented model cannot wrap another augmented model")
@@ -195,8 +195,6 @@ class AugmentedModel(Model):
         if len(nodal) > 1:
             raise ConfigError("at most one extra node (missing_dynamics with 'node') per model")
         if nodal:
-            from thermogym.models.fastnet import ExtraNodeNetwork
-
             spec = nodal[0]
             if spec.get("effect") != "missing_dynamics":
                 raise ConfigError(f"'node' belongs to missing_dynamics, not {spec.get('effect')!r}")
@@ -606,8 +604,6 @@ def register() -> None:
     The registry registers it with the built-in models; this function is kept
     for code that registers explicitly (idempotent).
     """
-    from thermogym.models.registry import model_names, register_model
-
     if "augmented" not in model_names():  # model_names() loads the built-in models first
         register_model("augmented", AugmentedModel)
 

@@ -65,6 +65,7 @@ from thermogym.models._linear_base import _compact, _make_signals, _transposed, 
 from thermogym.models._linear_kernels import _ss_simulate_kernel
 from thermogym.models.base import Model, Parameter, ThetaLike
 from thermogym.models.linear import FOPTDModel, StateSpaceMatrices, StateSpaceModel, foptd_zoh
+from thermogym.models.polynomial import PolynomialModel, _whole_steps
 
 __all__ = ["MODELS", "SOPDTModel", "discrete_realization", "sopdt_zoh"]
 
@@ -436,8 +437,6 @@ def discrete_realization(
     >>> H, round(float((r.C[0] @ np.linalg.solve(np.eye(4) - r.A[0], r.B[0]))[0, 0]), 9)
     (3, 2.0)
     """
-    from thermogym.models.polynomial import PolynomialModel, _whole_steps
-
     th = model.theta(theta)
     if isinstance(model, SOPDTModel):
         return model.realization(th, dt, history)

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from typing import Any
 
 from thermogym.errors import ConfigError, UnknownNameError
+from thermogym.models import axt211
 from thermogym.models.base import Model
 
 __all__ = ["get_model", "model_names", "register_model"]
@@ -25,9 +26,8 @@ def register_model(name: str, factory: Callable[..., Model]) -> None:
 def _load_builtin() -> None:
     if _FACTORIES:
         return
-    # built-in models load on first use: the registry imports cheaply
-    from thermogym.models import axt211
-
+    # AXT211 loads with thermogym.models; the other built-in models load on first use, so
+    # that the registry imports cheaply
     register_model("axt211", axt211.AXT211)
     for module, names in (
         ("thermogym.models.spindle", ("spindle",)),

@@ -643,6 +643,7 @@ class Recording:
             )
         sim_model = sim.meta.get("model")
         if model is None and sim_model is not None:
+            # the registry loads the models (~0.3 s): only for a simulation that names its model
             from thermogym.models.registry import get_model
 
             try:

@@ -36,6 +36,7 @@ from __future__ import annotations
 import inspect
 import math
 import re
+import textwrap
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -290,8 +291,6 @@ def extras_table(extras: Sequence[ExtraPhysics], width: int = 92) -> str:
     lag
         a lag. Source: datasheet. Size: 3 s. Off: none.
     """
-    import textwrap
-
     out = []
     for e in extras:
         text = f"{e.what}. Source: {e.source}. Size: {e.size}. Off: {e.off}."
@@ -805,7 +804,7 @@ def first_order_lag(x: NDArray[np.float64], tau: float, dt: float) -> NDArray[np
     dt : float
         Sample period [s].
     """
-    from scipy.signal import lfilter
+    from scipy.signal import lfilter  # scipy.signal (~1 s) only when a sensor lag is applied
 
     a = float(np.exp(-dt / tau))
     # y[k+1] = a y[k] + (1 − a) x[k], y[0] = x[0] (the sensor starts in equilibrium); in

@@ -67,6 +67,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from thermogym._checks import choice
 from thermogym.rigs import _axt211_physics as _ax
 from thermogym.rigs import _room_physics as _rp
 from thermogym.rigs.axt211 import AXT211_EXTRAS, AXT211_PARAMETERS, AXT211Plant
@@ -81,7 +82,7 @@ from thermogym.rigs.base import (
     TruePlant,
     extras_table,
 )
-from thermogym.rigs.sensors import Sensor
+from thermogym.rigs.sensors import N_RANDOM, Sensor, SensorStream
 
 __all__ = ["ROOM_EXTRAS", "ROOM_PARAMETERS", "RoomPlant", "RoomRig"]
 
@@ -246,8 +247,6 @@ class RoomPlant(TruePlant):
         effects: Sequence[Any] = (),
     ) -> None:
         super().__init__(off=off, effects=effects)
-        from thermogym._checks import choice
-
         self.valve = choice("valve", valve, ("linear", "equal_percentage"))
         self._kind = 0 if valve == "linear" else 1
         act_off = [n for n in off if n in _SW_ACT]
@@ -459,8 +458,6 @@ def _thermostat(
     xs = np.empty((n, _rp.N_STATES))
     on = False
     sens = rig.sensor("T_zone")
-    from thermogym.rigs.sensors import N_RANDOM, SensorStream
-
     st = SensorStream(sens, 1)
     st.start([0], x[:, _rp.I_AIR], np.zeros((1, N_RANDOM)))
     meas = float(x[0, _rp.I_AIR])

@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError, ShapeError
 from thermogym.identification.coordinator import run_identification
+from thermogym.identification.diagnosis import diagnose
 from thermogym.identification.foptd import fit_foptd
 from thermogym.identification.metrics import rmse
 from thermogym.identification.problem import Problem
@@ -525,8 +526,6 @@ def _diagnosis_gap(recs: Sequence[Recording], feeds: Sequence[float]) -> dict[st
     the nominal and the augmented model, each with the initial state and per-test
     quantities the diagnosis estimated), over the temperatures of :data:`OUTPUTS`.
     """
-    from thermogym.identification.diagnosis import diagnose
-
     rep = diagnose("strut", list(recs[:1]), list(recs[1:]))
     out: dict[str, Any] = {
         "named": rep.best.get("effect") if rep.best else "none",

@@ -1,19 +1,22 @@
-"""Fitting for diagnosis: experiments, initial states, per-recording parameters, least squares.
+"""Fitting for diagnosis: the problem, per-recording parameters, least squares.
 
 Every model the diagnosis fits — the nominal model and each hypothesis —
 goes through :func:`fit_model`: bounded nonlinear least squares of the
-simulation error of every fitted output in every recording, solved by
+simulation error of every fitted output in every recording
+(:class:`~.experiments.Experiment`), solved by
 :func:`thermogym.identification.optimizers.local.box_least_squares` (the
 solver the identification optimisers share), with
 
 * outputs weighted by the inverse of their spread in the training data (each
-  output counts like its NRMSE, eq 5 of ``001_6d13a2cd04f5de5e.txt``);
+  output counts like its NRMSE, eq 5 of ``001_6d13a2cd04f5de5e.txt``:
+  :func:`output_weights`);
 * parameters scaled to their bounds (``s = (θ − lower)/(upper − lower)``);
 * Jacobians by forward differences, the perturbed sets simulated as **one
   batched call** of the model (the batch dimension of
   :class:`thermogym.models.base.Model`);
 * several starts drawn inside the bounds (a scrambled Sobol' sequence, seeded:
-  deterministic), all evaluated in one batch, the best refined;
+  deterministic, :func:`sobol_starts`), all evaluated in one batch, the best
+  refined;
 * standard errors from the Jacobian (sandwich form of
   :func:`thermogym.identification.uncertainty.covariance_from_jacobian`).
 
@@ -23,27 +26,24 @@ separately in every recording: the free vector holds the shared parameters,
 then one block per recording. Its Jacobian columns touch one recording only
 and are computed on that recording alone.
 
-**Initial states.** Recordings rarely start at rest (paper 000: the drive
-"had not fully cooled down"; a building log starts mid-operation). With
-``x0="estimate"`` (the default) each recording's initial state is a nuisance
-estimated by linear least squares from the free responses of the model to
-unit deviations of its states (MATLAB ``compare``'s ``x0 = 'estimate'``)::
+**Initial states.** With ``x0="estimate"`` (the default) each recording's
+initial state is a nuisance estimated by linear least squares from the free
+responses of the model to unit deviations of its states (MATLAB
+``compare``'s ``x0 = 'estimate'``)::
 
     ŷ(θ, x_r + Φ δ) ≈ ŷ(θ, x_r) + Ψ(θ) δ,    δ = argmin ‖W (y − ŷ − Ψ δ)‖²
 
 with ``x_r`` the model's own initial state (usually rest or steady at the
-first input). The free responses ``Ψ`` are simulated with the parameter set
-itself (in the same batch), so they follow the fit; only a thermal network,
-whose deviations spread over many nodes, takes them once at the problem's
-start values, with its measured nodes' deviations spread to the unmeasured
-ones as the steady field they impose (a harmonic interpolation over the
-conductances, eq 13 of paper 000 with zero sources). The least squares uses
-the samples over which the free responses carry 99.9 % of their energy: where
-the initial state is no longer visible, the samples would only let the free
-responses absorb model error. Directions the data cannot see are dropped
-(truncated SVD). ``x0="rest"`` takes the model's own initial state and
-``x0="measured"`` starts the measured temperature states at their first
-samples.
+first input) and the deviations ``Φ`` those of :mod:`.initial_states`. The
+free responses ``Ψ`` are simulated with the parameter set itself (in the
+same batch), so they follow the fit; only a thermal network, whose
+deviations spread over many nodes, takes them once at the problem's start
+values. The least squares uses the samples over which the free responses
+carry 99.9 % of their energy: where the initial state is no longer visible,
+the samples would only let the free responses absorb model error. Directions
+the data cannot see are dropped (truncated SVD). ``x0="rest"`` and
+``x0="measured"`` take the initial states of those policies
+(:func:`~.initial_states.initial_states`).
 """
 
 from __future__ import annotations
@@ -56,22 +56,30 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.stats import qmc
 
-from thermogym.errors import IdentificationError, RecordingError, ShapeError
+from thermogym.errors import IdentificationError, ShapeError
+from thermogym.identification.diagnosis.experiments import Experiment
+
+# re-exported: stages_nominal imports it from here (the one importer left of its old home)
+from thermogym.identification.diagnosis.experiments import (
+    prepare_experiments as prepare_experiments,
+)
+from thermogym.identification.diagnosis.initial_states import (
+    initial_states,
+    network_directions,
+    state_directions,
+)
 from thermogym.identification.optimizers.local import box_least_squares
+from thermogym.identification.uncertainty import covariance_from_jacobian
 from thermogym.models.base import Model
-from thermogym.recording import Recording
 
 __all__ = [
     "LOCAL_GROUP",
-    "Experiment",
     "FitOutcome",
     "FitProblem",
-    "decimate",
     "fit_model",
-    "initial_states",
     "output_weights",
-    "prepare_experiments",
     "simulate_all",
     "sobol_starts",
 ]
@@ -79,341 +87,11 @@ __all__ = [
 #: Parameter group of per-recording parameters (fitted separately in every recording).
 LOCAL_GROUP = "local"
 
-_TEMPERATURE_UNITS = ("°C", "K", "degC")
 #: Share of the free responses' energy that decides the initial-state window.
 _X0_ENERGY = 0.999
 #: Relative singular value below which an initial-state direction counts as unobservable.
 _X0_RCOND = 1e-7
 _X0_POLICIES = ("rest", "measured", "estimate")
-
-
-# ------------------------------------------------------------------ experiments
-@dataclass
-class Experiment:
-    """One recording prepared for a model: uniform grid, arrays in model order.
-
-    Attributes
-    ----------
-    recording : Recording
-        The (possibly resampled) recording.
-    dt : float
-        Sample period [s].
-    u : ndarray, shape (T, n_u)
-        Exogenous signals in ``model.exogenous_names`` order.
-    y : ndarray, shape (T, n_y)
-        Measured outputs in the order of the fitted outputs (NaN where missing).
-    outputs : tuple of str
-    notes : list of str
-        What was done to the recording (resampling, decimation).
-    """
-
-    recording: Recording
-    dt: float
-    u: NDArray[np.float64]
-    y: NDArray[np.float64]
-    outputs: tuple[str, ...]
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def name(self) -> str:
-        """Experiment id, or ``"recording"``."""
-        return self.recording.experiment_id or "recording"
-
-    @property
-    def time(self) -> NDArray[np.float64]:
-        """Sample times [s]."""
-        return self.recording.time
-
-    @property
-    def n(self) -> int:
-        """Number of samples."""
-        return int(self.u.shape[0])
-
-
-def decimate(rec: Recording, dt: float, exogenous: Sequence[str]) -> Recording:
-    """Average a uniform recording onto a coarser grid of period ``dt``.
-
-    Exogenous columns are averaged over ``[t_k, t_k + Δ)`` (what a model holds
-    constant over the interval, zero-order hold); outputs are taken at ``t_k``
-    (point samples: an average would smear outputs that jump with the input,
-    such as a heater's power, and would hide the sensor's own noise level).
-    The period must be a whole multiple of the recording's.
-
-    Parameters
-    ----------
-    rec : Recording
-        Uniformly sampled.
-    dt : float
-        New period [s].
-    exogenous : sequence of str
-        Columns averaged forwards.
-
-    Returns
-    -------
-    Recording
-
-    Raises
-    ------
-    RecordingError
-        ``dt`` is not a whole multiple of the recording's period.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> rec = Recording(np.arange(10.0), {"u": np.arange(10.0), "y": np.arange(10.0)})
-    >>> d = decimate(rec, 2.0, ["u"])
-    >>> d.time.tolist(), d["u"].tolist(), d["y"].tolist()
-    ([0.0, 2.0, 4.0, 6.0, 8.0], [0.5, 2.5, 4.5, 6.5, 8.5], [0.0, 2.0, 4.0, 6.0, 8.0])
-    """
-    src = rec.dt
-    f = dt / src
-    m = round(f)
-    if m < 1 or abs(f - m) > 1e-6 * f:
-        raise RecordingError(
-            f"cannot decimate recording {rec.experiment_id!r} from {src!r} s to {dt!r} s: the new "
-            "period must be a whole multiple of the old"
-        )
-    if m == 1:
-        return rec
-    n = rec.n_samples // m
-    if n < 2:
-        raise RecordingError(
-            f"recording {rec.experiment_id!r} ({rec.n_samples} samples) is too short for a "
-            f"period of {dt!r} s"
-        )
-    cols: dict[str, NDArray[np.float64]] = {}
-    for name in rec.columns:
-        x = np.asarray(rec[name], dtype=float)
-        if name in exogenous:
-            cols[name] = np.nanmean(x[: n * m].reshape(n, m), axis=1)
-        else:
-            cols[name] = x[: n * m : m].copy()
-    t = rec.time[: n * m : m]
-    meta = {**rec.meta, "decimated_from_s": src}
-    return Recording(
-        t,
-        cols,
-        units=dict(rec.units),
-        roles=dict(rec.roles),
-        experiment_id=rec.experiment_id,
-        source=rec.source,
-        meta=meta,
-    )
-
-
-def _uniform(rec: Recording, notes: list[str]) -> Recording:
-    if rec.n_samples < 2:
-        raise RecordingError(f"recording {rec.experiment_id!r} has a single sample")
-    if rec.is_uniform():
-        return rec
-    d = np.diff(rec.time)
-    step = float(np.median(d))
-    if float(d.max()) > 3 * step:
-        raise RecordingError(
-            f"recording {rec.experiment_id!r} has gaps (largest step {float(d.max())!r} s, median "
-            f"{step!r} s); prepare it first (thermogym.identification.prepare)"
-        )
-    from thermogym.identification.prepare import resample
-
-    out, _ = resample(rec, step, t_start=float(rec.time[0]))
-    notes.append(
-        f"{rec.experiment_id}: steps {float(d.min()):.4g}-{float(d.max()):.4g} s resampled onto "
-        f"a uniform {step:.4g} s grid (linear interpolation)"
-    )
-    return out
-
-
-def prepare_experiments(
-    model: Model,
-    recordings: Sequence[Recording],
-    outputs: Sequence[str],
-    *,
-    dt: float | None = None,
-    what: str = "training",
-) -> list[Experiment]:
-    """Check recordings against a model and bring them onto uniform grids.
-
-    Parameters
-    ----------
-    model : Model
-    recordings : sequence of Recording
-    outputs : sequence of str
-        Outputs to compare; each must be a model output and a column.
-    dt : float, optional
-        Decimate to this period [s] (a whole multiple of the recording's).
-    what : str
-        ``"training"`` or ``"validation"`` (for messages).
-
-    Returns
-    -------
-    list of Experiment
-
-    Raises
-    ------
-    RecordingError
-        Missing columns (named, with what the model expects), non-finite
-        exogenous samples, gaps, a recording too short.
-    """
-    out: list[Experiment] = []
-    for i, rec in enumerate(recordings):
-        if not isinstance(rec, Recording):
-            raise RecordingError(
-                f"{what} item {i} is a {type(rec).__name__}; expected a Recording "
-                "(read files with thermogym.recording.read_recording)"
-            )
-        rec.validate_for(model, outputs=list(outputs))
-        rec.check_values(list(model.exogenous_names))
-        notes: list[str] = []
-        r = _uniform(rec, notes)
-        if dt is not None and abs(dt - r.dt) > 1e-9 * dt:
-            r = decimate(r, float(dt), model.exogenous_names)
-            notes.append(f"{rec.experiment_id}: averaged onto a {dt:g} s grid")
-        u = r.exogenous_array(model)
-        if not np.isfinite(u).all():
-            raise RecordingError(
-                f"{what} recording {rec.experiment_id!r}: exogenous signals hold NaN after "
-                "resampling; prepare the recording first"
-            )
-        y = np.column_stack([np.asarray(r[o], dtype=float) for o in outputs])
-        out.append(Experiment(r, r.dt, u, y, tuple(outputs), notes))
-    return out
-
-
-# ------------------------------------------------------------------ initial states
-def _network_x0(
-    model: Any, theta: NDArray[np.float64], u0: NDArray[np.float64], first: Mapping[str, float]
-) -> NDArray[np.float64] | None:
-    from thermogym.models.fastnet import SwitchedNetwork
-    from thermogym.models.thermal_network import ThermalNetworkModel, network_matrices
-
-    if isinstance(model, SwitchedNetwork):
-        model = model.plant
-    if not isinstance(model, ThermalNetworkModel):
-        return None
-    net = model.arrays(theta)
-    H = net.H
-    measured: dict[int, float] = {}
-    for j, name in enumerate(model.output_names):
-        if name not in first or not math.isfinite(first[name]):
-            continue
-        row = H[j]
-        nz = np.flatnonzero(row)
-        if nz.size == 1 and row[nz[0]] == 1.0 and net.h0[0, j] == 0.0:
-            measured[int(nz[0])] = float(first[name])
-    x = model.initial_state(theta, u0)
-    if not measured:
-        return x
-    A, Bm = network_matrices(net)
-    n = A.shape[1]
-    Mi = np.array(sorted(measured))
-    Ui = np.array([i for i in range(n) if i not in measured])
-    xm = np.array([measured[i] for i in Mi])
-    for b in range(x.shape[0]):
-        x[b, Mi] = xm
-        if Ui.size:
-            # steady state of the unmeasured nodes with the measured ones held and no heat input
-            rhs = -(A[b][np.ix_(Ui, Mi)] @ xm + Bm[b, Ui, -1] * u0[b, -1])
-            x[b, Ui] = np.linalg.solve(A[b][np.ix_(Ui, Ui)], rhs)
-    return x
-
-
-def initial_states(
-    model: Model,
-    theta: NDArray[np.float64],
-    u0: NDArray[np.float64],
-    first: Mapping[str, float] | None,
-    policy: str = "rest",
-) -> NDArray[np.float64]:
-    """Initial states of a parameter batch under an initial-state policy.
-
-    Parameters
-    ----------
-    model : Model
-    theta : ndarray, shape (B, P)
-    u0 : ndarray, shape (B, n_u)
-        Exogenous signals at the first sample.
-    first : mapping, optional
-        First measured value of each output.
-    policy : {"rest", "measured"}
-        ``rest``: the model's own initial state; ``measured``: measured
-        temperature states start at their measured values.
-
-    Returns
-    -------
-    ndarray, shape (B, n_x)
-    """
-    from thermogym.models.augmented import AugmentedModel
-
-    if isinstance(model, AugmentedModel):
-        nb = len(model.base.parameters)
-        xb = initial_states(model.base, theta[:, :nb], u0, first, policy)
-        return model.augment_state(xb, theta, u0)
-    if policy == "rest" or not first:
-        return model.initial_state(theta, u0)
-    x = _network_x0(model, theta, u0, first)
-    if x is not None:
-        return x
-    x = model.initial_state(theta, u0)
-    units = {s.name: s.unit for s in model.signals}
-    for name, v in first.items():
-        if name in model.state_names and units.get(name) in _TEMPERATURE_UNITS and math.isfinite(v):
-            x[:, model.state_names.index(name)] = v
-    return x
-
-
-def _network_directions(
-    model: Any, theta: NDArray[np.float64], u0: NDArray[np.float64], outputs: Sequence[str]
-) -> NDArray[np.float64] | None:
-    """Harmonic initial-state directions of a thermal network's measured nodes, or None."""
-    from thermogym.models.augmented import AugmentedModel
-    from thermogym.models.fastnet import ExtraNodeNetwork, SwitchedNetwork
-    from thermogym.models.thermal_network import ThermalNetworkModel
-
-    if isinstance(model, AugmentedModel):
-        nb = len(model.base.parameters)
-        d = _network_directions(model.base, theta[:, :nb], u0, outputs)
-        if d is None:
-            return None
-        full = np.zeros((d.shape[0], len(model.state_names)))
-        full[:, : d.shape[1]] = d
-        return full
-    if isinstance(model, SwitchedNetwork):
-        model = model.plant
-    if isinstance(model, ExtraNodeNetwork):
-        nb = len(model.plant.parameters)
-        d = _network_directions(model.plant, theta[:, :nb], u0, outputs)
-        return None if d is None else np.column_stack([d, np.zeros(d.shape[0])])
-    if not isinstance(model, ThermalNetworkModel):
-        return None
-    units = {s.name: s.unit for s in model.signals}
-    temp = [o for o in outputs if units.get(o) in _TEMPERATURE_UNITS]
-    x_rest = model.initial_state(theta, u0)
-    ref = {o: float(x_rest[0, 0]) for o in temp}
-    base = _network_x0(model, theta, u0, ref)
-    dirs = []
-    for o in temp:
-        bumped = dict(ref)
-        bumped[o] = ref[o] + 1.0
-        x = _network_x0(model, theta, u0, bumped)
-        if base is not None and x is not None and np.any(x[0] != base[0]):
-            dirs.append(x[0] - base[0])
-    return np.array(dirs) if dirs else np.zeros((0, len(model.state_names)))
-
-
-def _state_directions(model: Model, x_rest: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Unit deviations of the states whose initial values are unknown.
-
-    The unit is 1, or 1e-3 of a large state value.
-    """
-    from thermogym.models.augmented import AugmentedModel
-
-    scale = np.maximum(1.0, 1e-3 * np.abs(x_rest[0]))
-    dirs = np.diag(scale)
-    if isinstance(model, AugmentedModel):
-        # the augmentations' physical states (a sensor's lag, a mass) are unknown at the start
-        # like the base model's; clocks, dead-time histories and references are not
-        dirs = dirs[model.x0_free]
-    return dirs
 
 
 # ------------------------------------------------------------------ the problem
@@ -510,7 +188,7 @@ class FitProblem:
             self._base_e.append(b)
         self._net_dirs: list[NDArray[np.float64] | None] = [None] * ne
         self._cached = (
-            _network_directions(
+            network_directions(
                 self.model, self.base[None], self.experiments[0].u[:1], self.experiments[0].outputs
             )
             if ne
@@ -518,7 +196,7 @@ class FitProblem:
         )
         if self._cached is not None and self.x0 == "estimate":
             for i, e in enumerate(self.experiments):
-                self._net_dirs[i] = _network_directions(
+                self._net_dirs[i] = network_directions(
                     self.model, self.base[None], e.u[:1], e.outputs
                 )
 
@@ -595,7 +273,7 @@ class FitProblem:
         B = th.shape[0]
         dirs = self._net_dirs[i]
         if dirs is None:
-            dirs = _state_directions(self.model, x0[:1])
+            dirs = state_directions(self.model, x0[:1])
         nd = dirs.shape[0]
         if nd == 0:
             sim = self.model.simulate(e.u, e.dt, th, x0, t0=float(e.time[0]), strict=False)
@@ -771,8 +449,6 @@ def sobol_starts(lower: NDArray[np.float64], upper: NDArray[np.float64], n: int,
     >>> s.shape, bool(((s >= [0, 1]) & (s <= [1, 1000])).all())
     ((4, 2), True)
     """
-    from scipy.stats import qmc
-
     lo, hi = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
     k = lo.size
     if n <= 0 or k == 0:
@@ -992,8 +668,6 @@ def _outcome(
 
 
 def _covariance(J: NDArray[np.float64], r: NDArray[np.float64]) -> tuple[Any, NDArray[np.float64]]:
-    from thermogym.identification.uncertainty import covariance_from_jacobian
-
     try:
         cov, se, *_ = covariance_from_jacobian(J, r, block=None)
     except ShapeError:

@@ -17,7 +17,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
+from thermogym.models.registry import get_model
 
 __all__ = ["Candidate", "Hypothesis", "NominalSpec"]
 
@@ -98,9 +100,6 @@ class NominalSpec:
 
     def build(self, candidates: Sequence[Candidate] = ()) -> Model:
         """The model with every candidate's effect switched on or wrapped around it."""
-        from thermogym.models.augmented import AugmentedModel
-        from thermogym.models.registry import get_model
-
         internal = [e for c in candidates for e in c.internal]
         augs = [*self.augmentations, *[dict(a) for c in candidates for a in c.augmentations]]
         if isinstance(self.base, Model):

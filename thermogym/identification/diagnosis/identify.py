@@ -24,8 +24,10 @@ from typing import Any
 
 import numpy as np
 
-from thermogym.identification.diagnosis.fit import Experiment, FitProblem
+from thermogym.identification.diagnosis.experiments import Experiment
+from thermogym.identification.diagnosis.fit import FitProblem
 from thermogym.identification.diagnosis.hypothesis import Hypothesis
+from thermogym.identification.uncertainty import covariance_from_jacobian
 
 __all__ = ["intervals"]
 
@@ -61,8 +63,6 @@ def intervals(
     dict
         ``{name: {"low", "high", "stderr", "identifiable", "note"}}``.
     """
-    from thermogym.identification.uncertainty import covariance_from_jacobian
-
     assert h.model is not None and h.theta is not None
     free = [p for p in h.free if p in h.bounds]
     if not free or not exps:

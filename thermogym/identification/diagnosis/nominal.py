@@ -29,14 +29,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError
+from thermogym.identification.diagnosis.experiments import Experiment
 from thermogym.identification.diagnosis.fit import (
-    Experiment,
     FitOutcome,
     FitProblem,
     fit_model,
 )
 from thermogym.identification.diagnosis.hypothesis import NominalSpec
+from thermogym.identification.n4sid import n4sid
+from thermogym.identification.uncertainty import identifiability
+from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
+from thermogym.models.linear import FOPTDModel, StateSpaceModel
+from thermogym.models.registry import get_model
 from thermogym.recording import Recording
 
 __all__ = [
@@ -91,8 +96,6 @@ def resolve_model(
     UnknownNameError
         An unknown model name.
     """
-    from thermogym.models.registry import get_model
-
     if isinstance(model, Model):
         return model, NominalSpec(model, {}, [], model.name)
     if not isinstance(model, str):
@@ -177,9 +180,6 @@ def generic_bounds(
 
 def generic_start(model: Model, train: Sequence[Experiment]) -> NDArray[np.float64]:
     """Data-based start values of a generic linear model (step-response estimates, N4SID)."""
-    from thermogym.models.augmented import AugmentedModel
-    from thermogym.models.linear import FOPTDModel, StateSpaceModel
-
     th = model.nominal.copy()
     base = model.base if isinstance(model, AugmentedModel) else model
     outs = train[0].outputs
@@ -226,8 +226,6 @@ def generic_start(model: Model, train: Sequence[Experiment]) -> NDArray[np.float
 def _n4sid_start(base: Any, train: Sequence[Experiment]) -> tuple[Any, Any, Any] | None:
     """N4SID matrices (paper 001) at the data's period, about the training operating point."""
     try:
-        from thermogym.identification.n4sid import n4sid
-
         usable = [e.recording for e in train if np.all(np.ptp(e.u, axis=0) > 0)]
         if not usable:
             return None
@@ -270,8 +268,6 @@ def calibration_set(
     table : dict
         :meth:`~thermogym.identification.uncertainty.Identifiability.to_dict`.
     """
-    from thermogym.identification.uncertainty import identifiability
-
     if not candidates:
         return [], {}
     pb = FitProblem(model, tuple(candidates), theta, lower, upper, train, weights, x0)

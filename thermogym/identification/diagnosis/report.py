@@ -32,13 +32,14 @@ import html
 import json
 import math
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import thermogym
 from thermogym._checks import with_unit
-from thermogym._fileio import atomic_write_text, to_jsonable
+from thermogym._fileio import atomic_write, atomic_write_text, to_jsonable
 from thermogym.errors import ConfigError
 from thermogym.fitresult import FitResult
 
@@ -593,6 +594,7 @@ class DiagnosisReport:
     # ------------------------------------------------------------------ HTML
     def figures(self) -> dict[str, bytes]:
         """The report's figures as PNG bytes, by caption (draws with matplotlib)."""
+        # lazy: the figures module loads matplotlib (~0.3 s), only needed when figures are drawn
         from thermogym.identification.diagnosis import plots
 
         return plots.report_figures(self)
@@ -639,8 +641,6 @@ class DiagnosisReport:
         figures_dir: str | None = None,
     ) -> Path:
         """Write the Markdown report; figures go next to it as PNG files when asked."""
-        from thermogym._fileio import atomic_write
-
         p = Path(path)
         figs: dict[str, str] = {}
         if figures_dir is not None:
@@ -670,8 +670,6 @@ def _markdown_to_html(md: str) -> str:
 
     def inline(s: str) -> str:
         s = html.escape(s)
-        import re
-
         s = re.sub(r"\*\*(.+?)\*\*", r"<b>\1</b>", s)
         s = re.sub(r"`(.+?)`", r"<code>\1</code>", s)
         s = re.sub(r"\*(.+?)\*", r"<i>\1</i>", s)

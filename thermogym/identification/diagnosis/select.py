@@ -41,11 +41,12 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import stats
 
+from thermogym.identification.diagnosis.experiments import Experiment
 from thermogym.identification.diagnosis.fit import (
     LOCAL_GROUP,
     STOPPED,
-    Experiment,
     FitProblem,
     fit_model,
 )
@@ -57,7 +58,9 @@ from thermogym.identification.diagnosis.hypothesis import (
 )
 from thermogym.identification.diagnosis.scoring import delta_ic, whitened_chi2
 from thermogym.identification.metrics import nrmse
+from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
+from thermogym.models.fastnet import fast_or_none
 
 __all__ = ["MAX_EFFECTS", "Data", "fit_hypothesis", "forward_selection", "nrmse_table"]
 
@@ -246,8 +249,6 @@ def fit_hypothesis(
     Hypothesis
         With ``error`` set when it could not be fitted.
     """
-    from thermogym.models.fastnet import fast_or_none
-
     t0 = time.perf_counter()
     cands = (*parent.candidates, cand) if cand is not None else parent.candidates
     outs = list(data.train[0].outputs)
@@ -633,10 +634,6 @@ def course_independence(h: Hypothesis, data: Data) -> tuple[float, str]:
     where : str
         The input it follows most, in words.
     """
-    from scipy import stats
-
-    from thermogym.models.augmented import AugmentedModel
-
     model = h.model
     if not isinstance(model, AugmentedModel) or not h.local:
         return 1.0, ""

@@ -1,0 +1,793 @@
+"""Hypothesis proposers: the candidates of each effect for one model and its data.
+
+:meth:`.effects.Effect.propose` asks :func:`propose` for the candidates of an
+effect of the catalogue: the effect in each physically allowed form, on every
+signal it can act on (the most erring outputs first, at most two), as
+augmentation specs around the model
+(:class:`~thermogym.models.augmented.AugmentedModel`) or as the plant's own
+equations with the effect switched on (``physical_effects``). Bounds and
+neutral values are those of the parameter specifications (the augmentation's,
+the plant's physical effect's); a proposer only scales the ranges to the data
+(a dead time at most a quarter of a recording, an input's reference level),
+draws starts inside them (scrambled Sobol', seeded) and quotes the residual
+signature (:func:`.context.signatures`) as the candidate's evidence and prior.
+
+Beside the catalogue: :func:`course_baseline` (a per-recording course on the
+most erring output's reading, the baseline of a hypothesis whose course is
+re-estimated on held-out recordings) and :func:`generic_fix` (an extra
+first-order path from the inputs, a generic linear fix of a given size).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from thermogym.identification.diagnosis.context import Context
+from thermogym.identification.diagnosis.fit import sobol_starts
+from thermogym.identification.diagnosis.hypothesis import Candidate
+from thermogym.models.thermal_network import ThermalNetworkModel
+
+__all__ = ["course_baseline", "generic_fix", "propose"]
+
+#: Most outputs one effect is proposed on (the most erring first).
+_MAX_TARGETS = 2
+#: Random starts of the extra parameters besides the neutral values.
+_N_STARTS = 3
+
+
+# ------------------------------------------------------------------ helpers
+def _starts(bounds: dict[str, tuple[float, float]], n: int = _N_STARTS, seed: int = 0):
+    """Starts drawn inside the bounds (scrambled Sobol'): never a value a rig used."""
+    names = list(bounds)
+    if not names:
+        return ()
+    lo = np.array([bounds[p][0] for p in names])
+    hi = np.array([bounds[p][1] for p in names])
+    pts = sobol_starts(lo, hi, n, seed)
+    return tuple({p: float(v) for p, v in zip(names, row, strict=True)} for row in pts)
+
+
+def _fo(ctx: Context) -> dict[str, Any]:
+    return ctx.features.get("outputs", {})
+
+
+def _has_own(ctx: Context, prefix: str, signal: str) -> bool:
+    """Whether the nominal model has its own parameter ``<prefix>_<signal>`` (a fitted offset)."""
+    return any(p in ctx.model.param_names for p in (f"{prefix}_{signal}",))
+
+
+def _targets(ctx: Context, temperature: bool = False) -> list[str]:
+    outs = (
+        ctx.temperature_outputs
+        if temperature
+        else sorted(ctx.outputs, key=lambda o: -ctx.share.get(o, 0.0))
+    )
+    return outs[:_MAX_TARGETS]
+
+
+def _port(ctx: Context, output: str) -> tuple[str, float] | None:
+    """Port of a loop term on ``output`` and the scale from kelvin to the port's unit.
+
+    The ambient (the first exogenous temperature) when a kelvin there moves the
+    output by at least 0.2 K at steady state (a direct thermal path), else the
+    manipulated input with the largest gain.
+    """
+    amb = ctx.ambient
+    if amb is not None:
+        g = ctx.port_gain(amb, output)
+        if math.isfinite(g) and g >= 0.2:
+            return amb, 1.0 / g
+    best: tuple[str, float] | None = None
+    for i in ctx.inputs:
+        g = ctx.port_gain(i, output)
+        if math.isfinite(g) and abs(g) > 1e-9:
+            rel = abs(g) * ctx.u_ref(i)
+            if best is None or rel > best[1]:
+                best = (i, rel)
+    if best is None:
+        return None
+    g = ctx.port_gain(best[0], output)
+    return best[0], 1.0 / g
+
+
+def _loop_spec(ctx: Context, output: str, **spec: Any) -> dict[str, Any] | None:
+    p = _port(ctx, output)
+    if p is None:
+        return None
+    port, scale = p
+    out = {"signal": output, "port": port, "scale": scale, **spec}
+    if ctx.ambient is not None:
+        out["reference"] = ctx.ambient
+    return out
+
+
+def _assumption(ctx: Context) -> str:
+    return " (outputs without a unit taken as °C)" if ctx.assumed_celsius else ""
+
+
+# ------------------------------------------------------------------ proposers
+def _sensor_offset(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    for o in _targets(ctx):
+        if _has_own(ctx, "offset", o) or _has_own(ctx, "y0", o):
+            continue  # the model fits its own offset
+        sc = ctx.scale[o]
+        f = fo.get(o, {})
+        spec = {"effect": "sensor_offset", "signal": o, "bounds": {"offset": [-5 * sc, 5 * sc]}}
+        out.append(
+            Candidate(
+                "sensor_offset",
+                "constant",
+                o,
+                (spec,),
+                starts=_starts({f"offset_{o}": (-2 * sc, 2 * sc)}, 2),
+                evidence=f"mean residual of {o} = {f.get('offset_value', 0.0):.3g} "
+                f"{ctx.units.get(o, '')}, {100 * f.get('offset', 0.0):.0f} % of its mean square",
+                prior=f.get("offset", 0.0),
+            )
+        )
+    return out
+
+
+def _sensor_drift(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    for o in _targets(ctx):
+        sc = ctx.scale[o]
+        hi = 10 * sc / max(ctx.duration / 3600.0, 1e-3)
+        f = fo.get(o, {})
+        spec = {"effect": "sensor_drift", "signal": o, "bounds": {"rate": [-hi, hi]}}
+        out.append(
+            Candidate(
+                "sensor_drift",
+                "linear from the logger's start",
+                o,
+                (spec,),
+                starts=_starts({f"drift_{o}": (-0.2 * hi, 0.2 * hi)}, 2),
+                evidence=f"residual of {o} grows by {f.get('drift_per_h', 0.0):.3g} "
+                f"{ctx.units.get(o, '')}/h (R² = {f.get('drift', 0.0):.2f})",
+                prior=f.get("drift", 0.0),
+            )
+        )
+    return out
+
+
+def _sensor_lag(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    hi = 0.3 * ctx.duration
+    for o in _targets(ctx):
+        f = fo.get(o, {})
+        spec = {"effect": "sensor_lag", "signal": o, "bounds": {"tau": [0.0, hi]}}
+        guess = f.get("lag_tau", 0.0)
+        starts = list(_starts({f"tau_lag_{o}": (ctx.dt_min, 0.1 * hi)}, 2))
+        if 0 < guess < hi:
+            starts.insert(0, {f"tau_lag_{o}": float(guess)})
+        out.append(
+            Candidate(
+                "sensor_lag",
+                "first-order lag",
+                o,
+                (spec,),
+                starts=tuple(starts),
+                evidence=f"residual of {o} ≈ −τ·dŷ/dt with R² = {f.get('lag', 0.0):.2f}, "
+                f"τ ≈ {guess:.3g} s",
+                prior=f.get("lag", 0.0),
+            )
+        )
+    return out
+
+
+def _transport_delay(ctx: Context) -> list[Candidate]:
+    out: list[Candidate] = []
+    fo = _fo(ctx)
+    hi = 0.25 * ctx.duration
+    if any(p.startswith("tau_") for p in ctx.model.param_names) and ctx.spec.name == "foptd":
+        return out  # an FOPTD set fits its own dead times
+    top = _targets(ctx)
+    for name in ctx.exogenous:
+        if not ctx.varies(name):
+            continue
+        peaks = [fo.get(o, {}).get("xcorr", {}).get(name, {}) for o in top]
+        lag = max((p.get("peak_lag_s", 0.0) for p in peaks), default=0.0)
+        height = max((p.get("height", 0.0) for p in peaks), default=0.0)
+        starts = list(_starts({f"delay_{name}": (ctx.dt_min, 0.2 * hi)}, 2))
+        if 0 < lag < hi:
+            starts.insert(0, {f"delay_{name}": float(lag)})
+        spec = {
+            "effect": "transport_delay",
+            "signal": name,
+            "form": "input",
+            "bounds": {"delay": [0.0, hi]},
+        }
+        out.append(
+            Candidate(
+                "transport_delay",
+                "input dead time",
+                name,
+                (spec,),
+                starts=tuple(starts),
+                evidence=f"residual correlates with the changes of {name} {lag:.3g} s earlier "
+                f"(|r| = {height:.2f})",
+                prior=height,
+            )
+        )
+    for o in top:
+        f = fo.get(o, {})
+        peaks = list(f.get("xcorr", {}).values())
+        lag = max((p.get("peak_lag_s", 0.0) for p in peaks), default=0.0)
+        height = max((p.get("height", 0.0) for p in peaks), default=0.0)
+        starts = list(_starts({f"delay_out_{o}": (ctx.dt_min, 0.2 * hi)}, 2))
+        if 0 < lag < hi:
+            starts.insert(0, {f"delay_out_{o}": float(lag)})
+        spec = {
+            "effect": "transport_delay",
+            "signal": o,
+            "form": "output",
+            "bounds": {"delay": [0.0, hi]},
+        }
+        out.append(
+            Candidate(
+                "transport_delay",
+                "output dead time",
+                o,
+                (spec,),
+                starts=tuple(starts),
+                evidence=f"residual of {o} correlates with input changes {lag:.3g} s earlier "
+                f"(|r| = {height:.2f})",
+                prior=height,
+            )
+        )
+    return out
+
+
+def _manipulated(ctx: Context) -> list[str]:
+    return [i for i in ctx.inputs if ctx.varies(i)]
+
+
+def _input_nonlinearity(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    level = max((f.get("level", 0.0) for f in fo.values()), default=0.0)
+    for i in _manipulated(ctx):
+        v = np.concatenate(ctx.column(i, True))
+        v = v[np.isfinite(v)]
+        if np.unique(np.round(v, 9)).size < 3:
+            continue  # two levels cannot show the shape of a map
+        ur = ctx.u_ref(i)
+        lo_u, hi_u = float(np.min(v)), float(np.max(v))
+        ev = f"residual depends on the level of {i} (η² up to {level:.2f})"
+        u_max = max(abs(lo_u), abs(hi_u)) or ur
+        forms: list[tuple[str, str, dict[str, Any], dict[str, tuple[float, float]]]] = [
+            ("power", "power law", {}, {f"alpha_{i}": (0.5, 2.0)}),
+            ("saturation", "saturation", {}, {f"sat_{i}": (0.2, 3.0)}),
+            (
+                "limit",
+                "hard limit",
+                {"u_max": u_max},
+                {f"lim_{i}": (0.2 * u_max, 0.9 * u_max)},
+            ),
+            (
+                "dead_zone",
+                "dead zone",
+                {"bounds": {"d": [0.0, 0.8 * ur]}},
+                {f"dz_{i}": (0.05 * ur, 0.5 * ur)},
+            ),
+        ]
+        knots = np.linspace(lo_u, hi_u, 5)
+        if np.all(np.diff(knots) > 0):
+            forms.append(
+                (
+                    "piecewise_linear",
+                    "monotone piecewise-linear",
+                    {"knots": knots.tolist()},
+                    {f"pwl{k}_{i}": (0.3, 3.0) for k in range(1, 4)},
+                )
+            )
+        for form, words, extra, box in forms:
+            spec = {"effect": "input_nonlinearity", "signal": i, "form": form, "u_ref": ur, **extra}
+            out.append(
+                Candidate(
+                    "input_nonlinearity",
+                    words,
+                    i,
+                    (spec,),
+                    starts=_starts(box, 2),
+                    evidence=ev,
+                    prior=level,
+                )
+            )
+    return out
+
+
+def _backlash(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    d = max((f.get("direction", 0.0) for f in fo.values()), default=0.0)
+    for i in _manipulated(ctx):
+        if ctx.reversals(i) < 4:
+            continue
+        v = np.concatenate(ctx.column(i, True))
+        span = float(np.ptp(v))
+        spec = {
+            "effect": "backlash",
+            "signal": i,
+            "form": "input",
+            "bounds": {"c": [0.0, 0.3 * span]},
+        }
+        out.append(
+            Candidate(
+                "backlash",
+                "play on the input",
+                i,
+                (spec,),
+                starts=_starts({f"backlash_{i}": (0.01 * span, 0.15 * span)}, 2),
+                evidence=f"{i} reverses {ctx.reversals(i)} times; residual differs between "
+                f"rising and falling (η² up to {d:.2f})",
+                prior=d,
+            )
+        )
+    for o in ctx.outputs:
+        if ctx.units.get(o) != "mm" or _has_own(ctx, "backlash", o):
+            continue
+        sc = ctx.scale[o]
+        spec = {"effect": "backlash", "signal": o, "bounds": {"c": [0.0, 2 * sc]}}
+        out.append(
+            Candidate(
+                "backlash",
+                "play on the output",
+                o,
+                (spec,),
+                starts=_starts({f"backlash_{o}": (0.02 * sc, 0.4 * sc)}, 2),
+                evidence=f"residual of {o} differs between opening and closing "
+                f"(η² = {fo.get(o, {}).get('direction', 0.0):.2f})",
+                prior=fo.get(o, {}).get("direction", 0.0),
+            )
+        )
+    return out
+
+
+def _supply_variation(ctx: Context) -> list[Candidate]:
+    out = []
+    on = max((f.get("onoff", 0.0) for f in _fo(ctx).values()), default=0.0)
+    for i in _manipulated(ctx):
+        for form, words in (("steps", "steps"), ("smooth", "smooth wander")):
+            spec = {
+                "effect": "supply_variation",
+                "signal": i,
+                "form": form,
+                "span": ctx.span,
+                "segments": 6,
+            }
+            out.append(
+                Candidate(
+                    "supply_variation",
+                    words,
+                    i,
+                    (spec,),
+                    evidence=f"residual changes with {i} on and off (η² up to {on:.2f}) and "
+                    "over a run",
+                    prior=0.5 * on,
+                )
+            )
+    return out
+
+
+def _unmeasured_disturbance(ctx: Context) -> list[Candidate]:
+    feats = ctx.features
+    o = _targets(ctx)[0]
+    p = _port(ctx, o)
+    if p is None:
+        return []
+    port, scale = p
+    amp = 10.0 * ctx.scale[o] * abs(scale)
+    dur = ctx.duration
+    dt = ctx.dt_min
+    period = feats.get("period", math.nan)
+    per_lo, per_hi = 8 * dt, 2 * dur
+    out = []
+    ev_p = (
+        f"residual spectrum peaks at a period of {period / 3600:.3g} h "
+        f"({feats.get('period_peak', 0.0):.1f}× its median)"
+        if math.isfinite(period)
+        else "no clear spectral peak"
+    )
+    p0 = float(np.clip(period if math.isfinite(period) else dur / 2, per_lo, per_hi))
+    spec = {
+        "effect": "unmeasured_disturbance",
+        "signal": port,
+        "form": "periodic",
+        "period": p0,
+        "bounds": {"amplitude": [-amp, amp], "period": [per_lo, per_hi]},
+    }
+    out.append(
+        Candidate(
+            "unmeasured_disturbance",
+            "periodic",
+            port,
+            (spec,),
+            starts=tuple(
+                {f"dist_period_{port}": float(np.clip(f * p0, per_lo, per_hi))} for f in (0.5, 2.0)
+            ),
+            evidence=ev_p,
+            prior=min(1.0, feats.get("period_peak", 0.0) / 50.0),
+        )
+    )
+    for form, words in (("steps", "steps"), ("smooth", "smooth")):
+        spec = {
+            "effect": "unmeasured_disturbance",
+            "signal": port,
+            "form": form,
+            "span": ctx.span,
+            "segments": 6,
+            "bounds": {"amplitude": [-amp, amp]},
+        }
+        out.append(
+            Candidate(
+                "unmeasured_disturbance",
+                words,
+                port,
+                (spec,),
+                evidence="autocorrelated residual unrelated to the inputs",
+                prior=0.2,
+            )
+        )
+    return out
+
+
+def _nonlinear_heat_transfer(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    for o in _targets(ctx, temperature=True):
+        lo, hi = ctx.output_range(o)
+        amb = ctx.ambient
+        ref = float(np.nanmean(np.concatenate(ctx.column(amb)))) if amb else lo
+        T_ref = 0.5 * (lo + hi) + (0.0 if ctx.units.get(o) == "K" else 273.15)
+        dT_ref = max(abs(0.5 * (lo + hi) - ref), 1.0)
+        band = fo.get(o, {}).get("band", 0.0)
+        for form, words, extra in (
+            ("radiation", "radiation (T⁴ in kelvin)", {"T_ref": T_ref}),
+            ("convection", "natural convection (ΔT^1.25)", {"exponent": 1.25, "dT_ref": dT_ref}),
+        ):
+            spec = _loop_spec(ctx, o, effect="nonlinear_heat_transfer", form=form, **extra)
+            if spec is None:
+                continue
+            tag = "rad" if form == "radiation" else "conv"
+            out.append(
+                Candidate(
+                    "nonlinear_heat_transfer",
+                    words + _assumption(ctx),
+                    o,
+                    (spec,),
+                    starts=_starts({f"kappa_{tag}_{o}": (0.05, 1.0)}, 2),
+                    evidence=f"residual of {o} depends on the temperature band (η² up to "
+                    f"{band:.2f})",
+                    prior=band,
+                )
+            )
+    return out
+
+
+def _input_dependent(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    level = max((f.get("level", 0.0) for f in fo.values()), default=0.0)
+    targets = _targets(ctx, temperature=True)[:1]
+    for o in targets:
+        refs: list[str | None] = [*ctx.temperature_inputs] or [None]
+        for src in _manipulated(ctx):
+            for ref in refs:
+                spec = _loop_spec(
+                    ctx,
+                    o,
+                    effect="input_dependent_heat_transfer",
+                    form="power",
+                    source=src,
+                    u_ref=ctx.u_ref(src),
+                )
+                if spec is None:
+                    continue
+                if ref is None:
+                    spec.pop("reference", None)
+                else:
+                    spec["reference"] = ref
+                where = f"{o}–{ref}" if ref else o
+                out.append(
+                    Candidate(
+                        "input_dependent_heat_transfer",
+                        f"conductance ∝ {src}^m",
+                        where,
+                        (spec,),
+                        starts=_starts({f"kappa_fc_{o}": (0.05, 1.0), f"m_fc_{o}": (0.4, 1.5)}, 2),
+                        evidence=f"residual depends on the level of {src} (η² up to {level:.2f})",
+                        prior=level,
+                    )
+                )
+    return out
+
+
+def _time_varying(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    for o in _targets(ctx, temperature=True)[:1]:
+        f = fo.get(o, {})
+        drift = max(f.get("drift", 0.0), f.get("time", 0.0))
+        for form, words, extra, box in (
+            ("ramp", "ramp", {}, {f"tv_ramp_{o}": (-0.1, 0.1)}),
+            ("step", "step", {"span": ctx.span}, {}),
+            ("random_walk", "smooth random walk", {"span": ctx.span, "segments": 6}, {}),
+        ):
+            spec = _loop_spec(ctx, o, effect="time_varying_parameter", form=form, **extra)
+            if spec is None:
+                continue
+            out.append(
+                Candidate(
+                    "time_varying_parameter",
+                    f"loss conductance: {words}",
+                    o,
+                    (spec,),
+                    starts=_starts(box, 2) if box else (),
+                    evidence=f"the error of {o} changes within a run (R² of a trend "
+                    f"{f.get('drift', 0.0):.2f})",
+                    prior=drift,
+                )
+            )
+    return out
+
+
+def _missing_dynamics(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    dur = ctx.duration
+    dt = ctx.dt_min
+    for o in _targets(ctx, temperature=True):
+        spec = _loop_spec(
+            ctx,
+            o,
+            effect="missing_dynamics",
+            form="extra_node",
+            bounds={"tau": [dt, 3 * dur]},
+            tau=float(np.clip(dur / 10, dt, 3 * dur)),
+        )
+        if spec is None:
+            continue
+        out.append(
+            Candidate(
+                "missing_dynamics",
+                "mass coupled to the node",
+                o,
+                (spec,),
+                starts=_starts({f"xn_tau_{o}": (2 * dt, dur), f"xn_kappa_{o}": (0.1, 1.5)}, 3),
+                evidence=f"autocorrelated residual of {o} without a more specific pattern",
+                prior=0.3 * fo.get(o, {}).get("share", 0.0),
+            )
+        )
+    for i in _manipulated(ctx):
+        spec = {
+            "effect": "missing_dynamics",
+            "signal": i,
+            "form": "input_lag",
+            "bounds": {"tau": [0.0, dur]},
+        }
+        out.append(
+            Candidate(
+                "missing_dynamics",
+                f"store between {i} and the plant",
+                i,
+                (spec,),
+                starts=_starts({f"lag_in_{i}": (2 * dt, 0.2 * dur)}, 2),
+                evidence=f"the response to {i} is slower than the model's",
+                prior=0.2,
+            )
+        )
+    out += _parallel_path(ctx)
+    out += _network_node(ctx)
+    return out
+
+
+def _parallel_path(ctx: Context, n_params: int | None = None) -> list[Candidate]:
+    """One extra state per erring output driven by the exogenous signals (a generic fix)."""
+    dur, dt = ctx.duration, ctx.dt_min
+    fo = _fo(ctx)
+    o = _targets(ctx)[0]
+    srcs = [c for c in ctx.exogenous if ctx.varies(c)] or [ctx.main_input]
+    if n_params is not None:
+        srcs = srcs[: max(1, n_params - 1)]
+    spans = {c: max(float(np.ptp(np.concatenate(ctx.column(c)))), 1e-9) for c in srcs}
+    bounds: dict[str, list[float]] = {"T": [dt, 3 * dur]}
+    box: dict[str, tuple[float, float]] = {f"md_T_{o}": (2 * dt, dur)}
+    for c in srcs:
+        kmax = 10 * ctx.scale[o] / spans[c]
+        bounds[f"gain_{c}"] = [-kmax, kmax]
+        name = f"md_K_{o}" if len(srcs) == 1 else f"md_K_{o}__{c}"
+        box[name] = (-0.3 * kmax, 0.3 * kmax)
+    spec = {
+        "effect": "missing_dynamics",
+        "signal": o,
+        "sources": srcs,
+        "bounds": bounds,
+        "T": float(np.clip(dur / 5, dt, 3 * dur)),
+    }
+    auto = max(((1.0 - f.get("lag", 0.0)) * f.get("share", 0.0) for f in fo.values()), default=0)
+    return [
+        Candidate(
+            "missing_dynamics",
+            "extra first-order path from the inputs",
+            o,
+            (spec,),
+            starts=_starts(box, 3),
+            evidence="autocorrelated residual without a more specific pattern (Annex 58: add a "
+            "state)",
+            prior=0.3 * auto,
+        )
+    ]
+
+
+def _network_node(ctx: Context) -> list[Candidate]:
+    """A heat capacity at a measured node of a linear RC network (fast exact simulation)."""
+    m = ctx.model
+    if not isinstance(m, ThermalNetworkModel) or m.effects:
+        return []
+    net = m.arrays(ctx.theta[None])
+    out = []
+    for o in ctx.temperature_outputs[:2]:
+        row = net.H[list(m.output_names).index(o)]
+        nz = np.flatnonzero(row)
+        if not (nz.size == 1 and row[nz[0]] == 1.0):
+            continue
+        j = int(nz[0])
+        node = m.nodes[j]
+        c_node = float(net.C[0, j])
+        g_node = float(net.G[0, j].sum() + net.g_amb[0, j])
+        bounds = {
+            "C": [0.1 * c_node, 200 * c_node],
+            "G": [0.0, 20 * g_node],
+            "g": [0.0, 5 * g_node],
+        }
+        spec = {"effect": "missing_dynamics", "node": node, "bounds": bounds}
+        out.append(
+            Candidate(
+                "missing_dynamics",
+                "heat capacity at a node",
+                f"mass at {node}",
+                (spec,),
+                starts=_starts(
+                    {f"Cx_{node}": (c_node, 50 * c_node), f"Gx_{node}": (0.1 * g_node, 2 * g_node)},
+                    3,
+                ),
+                evidence=f"autocorrelated residual of {o}: a heat capacity the network lacks",
+                prior=0.3 * ctx.share.get(o, 0.0),
+            )
+        )
+    return out
+
+
+def _phase_change(ctx: Context) -> list[Candidate]:
+    out = []
+    fo = _fo(ctx)
+    for o in _targets(ctx, temperature=True)[:1]:
+        lo, hi = ctx.output_range(o)
+        if hi - lo <= 2.0:
+            continue
+        band = fo.get(o, {}).get("band", 0.0)
+        # the latent heat of κ seconds of the node's linear loss per kelvin: at most a
+        # tenth of a recording's worth of heat within one kelvin
+        kmax = 0.1 * ctx.duration
+        spec = _loop_spec(
+            ctx,
+            o,
+            effect="phase_change",
+            form="latent_heat",
+            T_melt=0.5 * (lo + hi),
+            bounds={
+                "T_melt": [lo, hi],
+                "width": [0.3, max(0.5, 0.25 * (hi - lo))],
+                "kappa": [0.0, kmax],
+            },
+        )
+        if spec is None:
+            continue
+        out.append(
+            Candidate(
+                "phase_change",
+                "latent heat (Gaussian melting range)",
+                o,
+                (spec,),
+                starts=_starts(
+                    {f"pc_kappa_{o}": (0.01 * kmax, 0.3 * kmax), f"pc_T_{o}": (lo, hi)}, 4
+                ),
+                evidence=f"residual of {o} concentrated in a temperature band (η² up to "
+                f"{band:.2f})",
+                prior=band,
+            )
+        )
+    return out
+
+
+def _internal(ctx: Context, effect: str) -> list[Candidate]:
+    """The plant's own equations with ``effect`` switched on (bounds from its specification)."""
+    m = ctx.model
+    avail = getattr(m, "physical_effects", {}) or {}
+    on = set(getattr(m, "effects", ()) or ())
+    if effect not in avail or effect in on or not ctx.spec.registered:
+        return []
+    eff = avail[effect]
+    box = {p.name: (p.lower, p.upper) for p in eff.parameters}
+    fo = _fo(ctx)
+    prior = max((f.get("level", 0.0) + f.get("band", 0.0) for f in fo.values()), default=0.0)
+    return [
+        Candidate(
+            effect,
+            "the plant's own equations",
+            "plant",
+            (),
+            (effect,),
+            starts=_starts(box, 4),
+            evidence=eff.explanation[:160],
+            prior=min(1.0, prior),
+        )
+    ]
+
+
+_PROPOSERS = {
+    "sensor_offset": _sensor_offset,
+    "sensor_drift": _sensor_drift,
+    "sensor_lag": _sensor_lag,
+    "transport_delay": _transport_delay,
+    "input_nonlinearity": _input_nonlinearity,
+    "backlash": _backlash,
+    "supply_variation": _supply_variation,
+    "unmeasured_disturbance": _unmeasured_disturbance,
+    "nonlinear_heat_transfer": _nonlinear_heat_transfer,
+    "input_dependent_heat_transfer": _input_dependent,
+    "time_varying_parameter": _time_varying,
+    "missing_dynamics": _missing_dynamics,
+    "phase_change": _phase_change,
+}
+
+
+def propose(ctx: Context, effect: str) -> list[Candidate]:
+    """Candidates of ``effect`` for the nominal model and data of ``ctx``.
+
+    Its augmentations around the model, then the plant's own equations with
+    the effect switched on (where the plant has it and it is off).
+    """
+    fn = _PROPOSERS.get(effect)
+    out = fn(ctx) if fn else []
+    out += _internal(ctx, effect)
+    return out
+
+
+def course_baseline(ctx: Context, n_knots: int) -> Candidate:
+    """A course of ``n_knots`` per recording added to the most erring output's reading.
+
+    The baseline of a hypothesis whose course is re-estimated on every held-out
+    recording: unshaped by the plant, it follows coloured sensor noise as well
+    as any course can. Not a candidate of the catalogue.
+    """
+    o = max(ctx.outputs, key=lambda x: ctx.share.get(x, 0.0))
+    amp = 20.0 * float(ctx.scale.get(o, 1.0))
+    spec = {
+        "effect": "sensor_drift",
+        "signal": o,
+        "form": "wander",
+        "span": ctx.span,
+        "segments": max(1, n_knots - 1),
+        "bounds": {"amplitude": [-amp, amp]},
+    }
+    return Candidate(
+        "sensor_drift",
+        "wander of the reading (a generic course)",
+        o,
+        (spec,),
+        evidence="baseline of a per-recording course",
+    )
+
+
+def generic_fix(ctx: Context, n_params: int) -> Candidate:
+    """A generic linear fix with about ``n_params`` parameters (an extra state)."""
+    return _parallel_path(ctx, max(2, n_params))[0]
