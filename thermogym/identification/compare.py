@@ -11,7 +11,7 @@ its model's own initial state.
 
 :func:`resid` runs Ljung's whiteness and input cross-correlation tests on the
 residuals ``y − ŷ`` of one fit, with the tests of the diagnosis
-(:func:`thermogym.identification.diagnosis.residuals.residual_tests`): the
+(:func:`thermogym.identification.residuals.residual_tests`): the
 same statistics, not a copy.
 """
 
@@ -30,6 +30,7 @@ from thermogym.errors import ConfigError, RecordingError
 from thermogym.fitresult import FitResult, load_fit
 from thermogym.identification.linear_fit import LINEAR_MODELS, X0_CHOICES, predict
 from thermogym.identification.metrics import nrmse
+from thermogym.identification.residuals import residual_tests
 from thermogym.recording import Recording
 
 __all__ = ["Comparison", "ModelPrediction", "compare", "predict_any", "resid"]
@@ -266,12 +267,8 @@ def resid(
     Returns
     -------
     dict
-        Output name → :class:`~thermogym.identification.diagnosis.residuals.ResidualTest`.
+        Output name → :class:`~thermogym.identification.residuals.ResidualTest`.
     """
-    # importing the residual tests runs the diagnosis package's __init__ (~0.4 s, 50 modules):
-    # only resid needs them, not compare
-    from thermogym.identification.diagnosis.residuals import residual_tests
-
     max_lag = integer("max_lag", max_lag, lo=1, error=ConfigError)
     alpha = probability("alpha", alpha, error=ConfigError)
     fit = load_fit(fit)

@@ -254,7 +254,7 @@ def plot_resid(
     Parameters
     ----------
     tests : mapping
-        Output → :class:`~thermogym.identification.diagnosis.residuals.ResidualTest`
+        Output → :class:`~thermogym.identification.residuals.ResidualTest`
         (from :func:`thermogym.identification.compare.resid`).
     path : path
     dt : float

@@ -24,14 +24,14 @@ When a simulation and recordings differ, :func:`diagnose`
 from thermogym.identification.diagnosis.effects import CATALOGUE, Effect, EffectEntry
 from thermogym.identification.diagnosis.hypothesis import Candidate, Hypothesis
 from thermogym.identification.diagnosis.report import DiagnosisReport
-from thermogym.identification.diagnosis.residuals import (
+from thermogym.identification.diagnosis.run import diagnose, resolve_model
+from thermogym.identification.residuals import (
     ResidualTest,
     autocorrelation,
     cross_correlation,
     noise_sigma,
     residual_tests,
 )
-from thermogym.identification.diagnosis.run import diagnose, resolve_model
 from thermogym.models.augmented import AugmentedModel, register
 
 register()

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.identification.diagnosis.hypothesis import NominalSpec
-from thermogym.identification.diagnosis.residuals import cross_correlation
+from thermogym.identification.residuals import cross_correlation
 from thermogym.models.base import Model
 
 __all__ = ["TEMPERATURE_UNITS", "Context", "signatures"]

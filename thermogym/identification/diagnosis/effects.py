@@ -46,10 +46,6 @@ from dataclasses import dataclass
 
 from thermogym.identification.diagnosis.context import Context, signatures
 from thermogym.identification.diagnosis.hypothesis import Candidate
-
-# course_baseline and generic_fix are re-exported: stages_hypotheses imports them from here
-from thermogym.identification.diagnosis.proposers import course_baseline as course_baseline
-from thermogym.identification.diagnosis.proposers import generic_fix as generic_fix
 from thermogym.identification.diagnosis.proposers import propose
 
 __all__ = ["CATALOGUE", "Context", "Effect", "EffectEntry", "candidates_for", "signatures"]

@@ -60,11 +60,6 @@ from scipy.stats import qmc
 
 from thermogym.errors import IdentificationError, ShapeError
 from thermogym.identification.diagnosis.experiments import Experiment
-
-# re-exported: stages_nominal imports it from here (the one importer left of its old home)
-from thermogym.identification.diagnosis.experiments import (
-    prepare_experiments as prepare_experiments,
-)
 from thermogym.identification.diagnosis.initial_states import (
     initial_states,
     network_directions,

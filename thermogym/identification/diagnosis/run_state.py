@@ -19,8 +19,8 @@ from thermogym.identification.diagnosis.context import Context
 from thermogym.identification.diagnosis.fit import Experiment
 from thermogym.identification.diagnosis.hypothesis import Candidate, Hypothesis, NominalSpec
 from thermogym.identification.diagnosis.locate import Regime
-from thermogym.identification.diagnosis.residuals import ResidualTest
 from thermogym.identification.diagnosis.select import Data, Selection
+from thermogym.identification.residuals import ResidualTest
 from thermogym.models.base import Model
 from thermogym.recording import Recording
 

@@ -12,14 +12,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from thermogym.identification.diagnosis.context import Context, signatures
-from thermogym.identification.diagnosis.effects import (
-    CATALOGUE,
-    candidates_for,
-    course_baseline,
-    generic_fix,
-)
+from thermogym.identification.diagnosis.effects import CATALOGUE, candidates_for
 from thermogym.identification.diagnosis.hypothesis import Hypothesis
 from thermogym.identification.diagnosis.identify import intervals
+from thermogym.identification.diagnosis.proposers import course_baseline, generic_fix
 from thermogym.identification.diagnosis.run_state import _need, _Run
 from thermogym.identification.diagnosis.select import (
     Selection,

@@ -19,12 +19,8 @@ from numpy.typing import NDArray
 from thermogym.errors import ConfigError, RecordingError, UnknownNameError
 from thermogym.fitresult import FitResult, load_fit
 from thermogym.identification.diagnosis.effects import CATALOGUE
-from thermogym.identification.diagnosis.fit import (
-    Experiment,
-    FitProblem,
-    output_weights,
-    prepare_experiments,
-)
+from thermogym.identification.diagnosis.experiments import Experiment, prepare_experiments
+from thermogym.identification.diagnosis.fit import FitProblem, output_weights
 from thermogym.identification.diagnosis.hypothesis import Hypothesis, NominalSpec
 from thermogym.identification.diagnosis.identify import intervals
 from thermogym.identification.diagnosis.locate import locate, regime_variables
@@ -36,7 +32,6 @@ from thermogym.identification.diagnosis.nominal import (
     generic_start,
     resolve_model,
 )
-from thermogym.identification.diagnosis.residuals import ResidualTest, noise_sigma, residual_tests
 from thermogym.identification.diagnosis.run_state import _deadline, _need, _Run
 from thermogym.identification.diagnosis.scoring import delta_ic, whitened_chi2
 from thermogym.identification.diagnosis.select import (
@@ -46,6 +41,7 @@ from thermogym.identification.diagnosis.select import (
     residuals_of,
     score_self,
 )
+from thermogym.identification.residuals import ResidualTest, noise_sigma, residual_tests
 from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
 from thermogym.recording import Recording

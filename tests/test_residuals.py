@@ -7,7 +7,7 @@ import pytest
 from scipy.signal import lfilter
 
 from thermogym.errors import ShapeError
-from thermogym.identification.diagnosis.residuals import (
+from thermogym.identification.residuals import (
     autocorrelation,
     cross_correlation,
     noise_sigma,
