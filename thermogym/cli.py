@@ -1,9 +1,12 @@
 """The ``thermogym`` command line.
 
 Each sub-command lives in its own module under :mod:`thermogym._cli`, which
-provides ``add_arguments(parser)`` and ``run(args) -> int``; modules are
-imported only when their command runs, so ``thermogym --help`` stays fast.
-Nothing else imports this module.
+provides ``add_arguments(parser)`` and ``run(args) -> int`` and imports what it
+needs at its top. This module is the one place that defers imports: the table
+:data:`COMMANDS` names each command's module, and a command's module is
+imported (and its options declared) only when that command is parsed, so
+``thermogym --help`` loads no command and ``thermogym NAME ...`` loads only
+``NAME``'s. Nothing else imports this module.
 
 Exit status and messages (the same for every command):
 
@@ -27,12 +30,14 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import os
 import signal
 import sys
 import threading
 import warnings
 from collections.abc import Sequence
+from types import ModuleType
 from typing import Any
 
 from thermogym import __version__
@@ -58,25 +63,59 @@ COMMANDS: dict[str, tuple[str, str]] = {
 }
 
 
+class _CommandParser(CliParser):
+    """A command's parser: its module is imported and its options declared on first use.
+
+    argparse hands a sub-command's parser its arguments (``parse_known_args``)
+    only when that command is named, and formats its help only then: until
+    that moment the parser is an empty shell with the command's name and one
+    line of help (:data:`COMMANDS`).
+    """
+
+    def __init__(self, *args: Any, module: str, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.module = module
+        self._declared = False
+
+    def load(self) -> ModuleType:
+        """The command's module, its options declared on this parser (once)."""
+        mod = importlib.import_module(self.module)
+        if not self._declared:
+            self._declared = True
+            mod.add_arguments(self)
+        return mod
+
+    def parse_known_args(self, *args: Any, **kwargs: Any) -> Any:
+        self.load()
+        return super().parse_known_args(*args, **kwargs)
+
+    def format_usage(self) -> str:
+        self.load()
+        return super().format_usage()
+
+    def format_help(self) -> str:
+        self.load()
+        return super().format_help()
+
+    def add_subparsers(self, **kwargs: Any) -> Any:
+        kwargs.setdefault("parser_class", CliParser)  # a command's own sub-commands: plain
+        return super().add_subparsers(**kwargs)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every sub-command."""
+    """The argument parser with every sub-command (each command's module loads on use)."""
     parser = CliParser(
         prog="thermogym",
         description="Identified thermal plants as Gymnasium environments: rigs, "
         "identification, diagnosis, control benchmarks.",
     )
     parser.add_argument("--version", action="version", version=f"thermogym {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_CommandParser)
     for name, (module, help_text) in COMMANDS.items():
-        try:
-            mod = importlib.import_module(module)
-        except ModuleNotFoundError as e:
-            if e.name != module:
-                raise
+        if importlib.util.find_spec(module) is None:
             continue  # a command whose module is not part of this build
-        p = sub.add_parser(name, help=help_text, description=help_text)
+        p = sub.add_parser(name, help=help_text, description=help_text, module=module)
         p.set_defaults(_module=module)
-        mod.add_arguments(p)
     return parser
 
 

@@ -18,6 +18,14 @@ from pathlib import Path
 from typing import Any
 
 from thermogym._cli.common import plan_outputs, whole
+
+# run_benchmark is looked up in its module when called, so that a replacement there is used
+# (the tests that check bad input is refused before any work)
+from thermogym.controllers import harness
+from thermogym.controllers.presets import CONTROLLER_GROUPS, CONTROLLER_NAMES, expand_controllers
+from thermogym.controllers.scenarios import SCENARIOS, get_scenario, scenarios_for
+from thermogym.controllers.tables import kpi_axes
+from thermogym.envs import ENV_IDS
 from thermogym.errors import ConfigError
 
 #: Scenario run when none is named.
@@ -93,28 +101,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _env_id(name: str) -> str:
-    import thermogym.envs as envs
-
-    if name in envs.ENV_IDS:
+    if name in ENV_IDS:
         return name
-    for i in envs.ENV_IDS:
+    for i in ENV_IDS:
         if i.split("/")[1].split("-v")[0].lower() == name.lower():
             return i
-    raise ConfigError(f"unknown environment {name!r}; environments are {list(envs.ENV_IDS)}")
+    raise ConfigError(f"unknown environment {name!r}; environments are {list(ENV_IDS)}")
 
 
 def _list() -> int:
-    import thermogym.envs as envs
-    from thermogym.controllers.presets import CONTROLLER_GROUPS, CONTROLLER_NAMES
-    from thermogym.controllers.scenarios import SCENARIOS, scenarios_for
-
     print("controller presets:", ", ".join(CONTROLLER_NAMES))
     print("groups:", ", ".join(f"{k} = {'+'.join(v)}" for k, v in CONTROLLER_GROUPS.items()))
     print("scenarios:")
     for key, s in SCENARIOS.items():
         if "@" in key:
             print(f"  {key:22s} {s.description} ({', '.join(sorted(s.env_kwargs))})")
-    for i in envs.ENV_IDS:
+    for i in ENV_IDS:
         n = i.split("/")[1].split("-v")[0]
         print(f"{i}: scenarios {', '.join(scenarios_for(n))}")
     return 0
@@ -128,8 +130,6 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--env is required (or --list)")
     if not args.out:
         raise ConfigError("--out is required: the folder of the report")
-    from thermogym.controllers.harness import run_benchmark
-
     policies = [item.partition("=")[2].strip() for item in args.policy]
     plan = plan_outputs(args, folders=("out",), inputs=("params",), extra_inputs=policies)
     for path in [args.params, *policies]:
@@ -142,9 +142,6 @@ def run(args: argparse.Namespace) -> int:
     for s in args.scenario or [DEFAULT_SCENARIO.get(name, "default")]:
         scenarios += [x.strip() for x in s.split(",") if x.strip()]
     # names the benchmark would refuse only after starting its workers: refused here
-    from thermogym.controllers.presets import expand_controllers
-    from thermogym.controllers.scenarios import get_scenario
-
     expand_controllers(args.controllers)
     if not scenarios:
         raise ConfigError(f"--scenario {','.join(args.scenario or [])!r} names no scenario")
@@ -164,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
     if bad or not plants:
         raise ConfigError(f"--plant {args.plant!r}: expected model, rig or model,rig")
     with plan:
-        res = run_benchmark(
+        res = harness.run_benchmark(
             env_id,
             scenarios,
             args.controllers,
@@ -179,8 +176,6 @@ def run(args: argparse.Namespace) -> int:
             title=args.title,
             params=args.params,
         )
-    from thermogym.controllers.tables import kpi_axes
-
     axes = list(kpi_axes(list(res.table.columns)).values())
     mean = res.table.groupby(["scenario", "plant", "controller"], sort=False)[axes].mean()
     print(mean.to_string(float_format=lambda v: f"{v:.4g}"))

@@ -43,6 +43,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import secrets
 import shutil
 import signal
@@ -712,8 +713,6 @@ def one_line(text: str, limit: int = 800) -> str:
     >>> one_line("value np.float64(30.0)\n  expected < 10")
     'value 30.0 expected < 10'
     """
-    import re
-
     text = re.sub(r"\bnp\.(?:float|int|uint|bool_|str_)\w*\(([^()]*)\)", r"\1", str(text))
     text = " ".join(text.split())
     if len(text) <= limit:

@@ -18,6 +18,9 @@ import json
 from thermogym._cli.common import names, plan_outputs, whole
 from thermogym._cli.data import add_data_options, load_recordings
 from thermogym.errors import ConfigError
+from thermogym.identification.compare import compare
+from thermogym.identification.linear_plots import plot_compare
+from thermogym.identification.metrics import fit_text
 from thermogym.recording import Recording
 
 #: Initial-state choices of the commands that simulate a linear fit.
@@ -62,9 +65,6 @@ def load_one(item: str, args: argparse.Namespace) -> Recording:
 
 def run(args: argparse.Namespace) -> int:
     """Compare and print the table."""
-    from thermogym.identification.compare import compare
-    from thermogym.identification.metrics import fit_text
-
     if args.labels is not None and len(args.labels) != len(args.fits):
         raise ConfigError(
             f"--labels {','.join(args.labels)!r}: give {len(args.fits)} names, one per fit"
@@ -89,8 +89,6 @@ def run(args: argparse.Namespace) -> int:
             if m.note:
                 print(f"    note: {m.note}")
         if args.plot:
-            from thermogym.identification.linear_plots import plot_compare
-
             plot_compare(result, plan.path("--plot"))
             print(f"  figure: {args.plot}")
         if args.json:

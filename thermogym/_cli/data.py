@@ -36,8 +36,14 @@ from typing import Any
 
 import numpy as np
 
+# read_recording and datasets.load are looked up in their modules when called, so that a
+# replacement there is used (the tests that check bad input is refused before any work)
+from thermogym import datasets, recording
 from thermogym._checks import in_range, integer
 from thermogym.errors import ConfigError, RecordingError
+from thermogym.identification.prepare import _DETREND_KINDS, _RESAMPLE_METHODS, resample
+from thermogym.identification.prepare import prepare as run_prepare
+from thermogym.recording import CSV_SUFFIXES, PARQUET_SUFFIXES
 
 __all__ = [
     "JITTER_TOL",
@@ -176,8 +182,6 @@ def _as_range(key: str, v: Any) -> tuple[float, float]:
 
 
 def _prepare_checks() -> dict[str, Callable[[str, Any], Any]]:
-    from thermogym.identification.prepare import _DETREND_KINDS, _RESAMPLE_METHODS
-
     def one_of(options: Sequence[str], none: bool = False) -> Callable[[str, Any], Any]:
         def check(key: str, v: Any) -> Any:
             if none and (v is None or (isinstance(v, str) and v.lower() == "none")):
@@ -265,8 +269,6 @@ def parse_prepare(items: Sequence[str] | None) -> dict[str, Any] | None:
 
 # ------------------------------------------------------------------------------ reading
 def _files_of(folder: Path, what: str) -> list[Path]:
-    from thermogym.recording import CSV_SUFFIXES, PARQUET_SUFFIXES
-
     manifest = folder / "manifest.json"
     if manifest.is_file():
         try:
@@ -309,8 +311,6 @@ def regularise(rec: Any, label: str, say: Callable[[str], None] = print) -> Any:
     spread = float(np.max(np.abs(d - mean)) / mean)
     if spread > JITTER_TOL:
         return rec
-    from thermogym.identification.prepare import resample
-
     dt = float(f"{mean:.3g}")
     out, _ = resample(rec, dt, t_start=float(rec.time[0]))
     say(
@@ -384,8 +384,6 @@ def load_recordings(
     UnknownNameError
         An unknown data set.
     """
-    from thermogym.recording import read_recording
-
     time = getattr(args, "time_column", None)
     delimiter = getattr(args, "delimiter", None)
     decimal = getattr(args, "decimal", None)
@@ -393,10 +391,8 @@ def load_recordings(
     for item in items:
         text = str(item)
         if text.startswith("dataset:"):
-            from thermogym.datasets import load
-
             name = text.split(":", 1)[1]
-            got = [(load(name), text)]
+            got = [(datasets.load(name), text)]
         else:
             path = Path(text)
             if path.is_dir():
@@ -408,7 +404,7 @@ def load_recordings(
             got = []
             for f in files:
                 notes: list[str] = []
-                rec = read_recording(
+                rec = recording.read_recording(
                     f, time=time, delimiter=delimiter, decimal=decimal, notes=notes
                 )
                 for n in notes:
@@ -419,8 +415,6 @@ def load_recordings(
         for rec, label in got:
             _check_finite(rec, label)
             if prepare is not None:
-                from thermogym.identification.prepare import prepare as run_prepare
-
                 rec = run_prepare(rec, **prepare)
             if jitter:
                 rec = regularise(rec, label, say)

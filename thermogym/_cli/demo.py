@@ -10,14 +10,15 @@ from __future__ import annotations
 import argparse
 import sys
 
+# run_demo is looked up in its module when called, so that a replacement there is used (the
+# tests that check bad input is refused before any work)
+from thermogym import demo
 from thermogym._cli.common import Interrupted, plan_outputs, whole
 from thermogym.errors import ConfigError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare the options."""
-    from thermogym.demo import stage_keys
-
     p.add_argument("--out", default="out", help="output folder (default: out)")
     p.add_argument(
         "--seed",
@@ -32,26 +33,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--only",
         action="append",
         metavar="STAGE",
-        choices=stage_keys(),
-        help=f"run only this stage (repeatable): {', '.join(stage_keys())}",
+        choices=demo.stage_keys(),
+        help=f"run only this stage (repeatable): {', '.join(demo.stage_keys())}",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress lines or bars")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the demo; exit status 1 when a stage failed, 2 when none could run."""
-    from thermogym.demo import DemoInterrupted, run_demo
-
     plan_outputs(args, folders=("out",), unstaged=("out",))  # the demo stages its own files
     try:
-        results = run_demo(
+        results = demo.run_demo(
             args.out,
             quick=args.quick,
             seed=args.seed,
             only=args.only,
             progress=not args.no_progress,
         )
-    except DemoInterrupted as e:
+    except demo.DemoInterrupted as e:
         if not e.reports:
             raise Interrupted(
                 f"stage {e.stage!r} published nothing; every file in {args.out} is as it was"

@@ -20,6 +20,8 @@ from pathlib import Path
 from thermogym._cli.common import choice_list, names, plan_outputs, positive, probability
 from thermogym._cli.data import add_data_options, load_recordings
 from thermogym.errors import ConfigError, UnknownNameError
+from thermogym.identification.diagnosis import diagnose
+from thermogym.models.registry import model_names
 from thermogym.vocabulary import EFFECT_NAMES
 
 
@@ -104,8 +106,6 @@ def _split(items: tuple[str, ...] | None) -> list[str] | None:
 
 def _check_model(spec: str) -> None:
     """Refuse an unknown ``--model`` before any recording is read."""
-    from thermogym.models.registry import model_names
-
     name, sep, order = spec.partition(":")
     if name == "ss":
         if sep and (not order.strip().isdigit() or int(order) < 1):
@@ -126,8 +126,6 @@ def load_data(items: list[str], what: str, args: argparse.Namespace | None = Non
 
 def run(args: argparse.Namespace) -> int:
     """Diagnose and write the reports."""
-    from thermogym.identification.diagnosis import diagnose
-
     _check_model(args.model)
     plan = plan_outputs(
         args,

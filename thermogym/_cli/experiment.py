@@ -17,6 +17,9 @@ import inspect
 import math
 from typing import Any
 
+# the rigs are used through their module (rigs.run_experiment looked up when called), so that
+# a replacement there is used (the tests that check bad input is refused before any work)
+from thermogym import rigs
 from thermogym._cli.common import plan_outputs, whole
 from thermogym.errors import ConfigError
 
@@ -144,9 +147,7 @@ def _check_sign(key: str, where: str, values: list[Any]) -> None:
 
 def _options(rig_name: str, protocol: str, items: list[str]) -> dict[str, Any]:
     """``--option`` items checked against the protocol's keyword defaults."""
-    from thermogym.rigs import get_rig
-
-    rig = get_rig(rig_name)
+    rig = rigs.get_rig(rig_name)
     try:
         proto = rig.protocols[protocol]
     except KeyError:
@@ -197,13 +198,11 @@ def _check_size(rig: str, protocol: str, opts: dict[str, Any], given: dict[str, 
 
 def run(args: argparse.Namespace) -> int:
     """Run the protocol and write its recordings."""
-    from thermogym.rigs import get_rig, run_experiment
-
-    get_rig(args.rig, args.effect)  # unknown rig or effect: refused before anything else
+    rigs.get_rig(args.rig, args.effect)  # unknown rig or effect: refused before anything else
     options = _options(args.rig, args.protocol, args.option)
     plan = plan_outputs(args, folders=("out",))
     with plan:
-        recs = run_experiment(
+        recs = rigs.run_experiment(
             args.rig,
             args.protocol,
             plan.path("--out"),

@@ -22,7 +22,10 @@ import numpy as np
 
 from thermogym._cli.common import plan_outputs, positive, whole
 from thermogym._cli.data import add_data_options, load_recordings
+from thermogym._cli.virtual_sensor import _pairs as rest_pairs
 from thermogym.errors import ConfigError
+from thermogym.firmware.codegen import budget_target, firmware_model
+from thermogym.firmware.export import export, sensor_from_fit
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -109,8 +112,6 @@ def _pairs(items: list[str]) -> dict[str, float]:
 
 
 def _rest_pairs(items: list[str]) -> dict[str, float | str]:
-    from thermogym._cli.virtual_sensor import _pairs as rest_pairs
-
     return rest_pairs(items)
 
 
@@ -139,9 +140,6 @@ def _names(text: str | None) -> tuple[str, ...] | None:
 
 def run(args: argparse.Namespace) -> int:
     """Export or size the firmware."""
-    from thermogym.firmware.codegen import budget_target, firmware_model
-    from thermogym.firmware.export import export, sensor_from_fit
-
     kwargs = {
         "measured": _names(args.measured) or (),
         "hidden": _names(args.hidden),

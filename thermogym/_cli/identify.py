@@ -12,31 +12,34 @@ The methods are implemented by handler modules that parse their own options
   :mod:`thermogym._cli.identify_global`.
 
 Each handler module provides ``main(method: str, argv: list[str]) -> int``.
+All three are imported with this module: they share most of what they import
+(the recordings, the linear fits, the figures), so loading the other two costs
+little next to the one that runs.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
+from types import ModuleType
 
-from thermogym.errors import UnknownNameError
+from thermogym._cli import identify_global, identify_linear, identify_pem
 
-HANDLERS: dict[str, str] = {
-    "foptd": "thermogym._cli.identify_linear",
-    "n4sid": "thermogym._cli.identify_linear",
-    "rls": "thermogym._cli.identify_linear",
-    "arx": "thermogym._cli.identify_pem",
-    "armax": "thermogym._cli.identify_pem",
-    "oe": "thermogym._cli.identify_pem",
-    "bj": "thermogym._cli.identify_pem",
-    "sopdt": "thermogym._cli.identify_pem",
-    "ssest": "thermogym._cli.identify_pem",
-    "auto": "thermogym._cli.identify_pem",
-    "greybox": "thermogym._cli.identify_global",
-    "montecarlo": "thermogym._cli.identify_global",
-    "anneal": "thermogym._cli.identify_global",
-    "evolution": "thermogym._cli.identify_global",
-    "cmaes": "thermogym._cli.identify_global",
+HANDLERS: dict[str, ModuleType] = {
+    "foptd": identify_linear,
+    "n4sid": identify_linear,
+    "rls": identify_linear,
+    "arx": identify_pem,
+    "armax": identify_pem,
+    "oe": identify_pem,
+    "bj": identify_pem,
+    "sopdt": identify_pem,
+    "ssest": identify_pem,
+    "auto": identify_pem,
+    "greybox": identify_global,
+    "montecarlo": identify_global,
+    "anneal": identify_global,
+    "evolution": identify_global,
+    "cmaes": identify_global,
 }
 
 
@@ -52,10 +55,4 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Dispatch to the method's handler."""
-    try:
-        module = importlib.import_module(HANDLERS[args.method])
-    except ModuleNotFoundError as e:
-        raise UnknownNameError(
-            f"identification method {args.method!r} is not available in this build ({e})"
-        ) from e
-    return int(module.main(args.method, list(args.args)) or 0)
+    return int(HANDLERS[args.method].main(args.method, list(args.args)) or 0)

@@ -44,6 +44,12 @@ from thermogym._cli.data import (
     parse_prepare,
 )
 from thermogym.errors import ConfigError, UnknownNameError
+from thermogym.identification.coordinator import run_identification
+from thermogym.identification.coordinator_plots import plot_fit
+from thermogym.identification.external import load_external
+from thermogym.identification.problem import FreeParameter, Problem, RatioParameter
+from thermogym.identification.uncertainty import estimate_input_noise
+from thermogym.models.registry import get_model
 
 _METHODS = ("greybox", "montecarlo", "anneal", "evolution", "cmaes")
 
@@ -183,8 +189,6 @@ def _number(text: str, what: str) -> float:
 
 
 def _free_specs(items: list[str], log: list[str]) -> dict[str, Any]:
-    from thermogym.identification.problem import FreeParameter
-
     out: dict[str, Any] = {}
     for item in items:
         name, _, rng = item.partition("=")
@@ -222,8 +226,6 @@ def _pairs(items: list[str]) -> list[tuple[str, str, float]] | None:
 
 
 def _ratios(items: list[str]) -> list[Any]:
-    from thermogym.identification.problem import RatioParameter
-
     out = []
     for item in items:
         name, eq, rest = item.partition("=")
@@ -266,16 +268,6 @@ def _noise_specs(items: list[str]) -> dict[str, float | None]:
 
 
 def _external(args: argparse.Namespace) -> Any:
-    try:
-        from thermogym.identification.external import load_external
-    except ModuleNotFoundError as e:
-        if e.name and e.name.startswith("thermogym.identification.external"):
-            raise ConfigError(
-                "--external needs the external-model adapters "
-                "(thermogym.identification.external), which are not part of this build; "
-                "use --model with a thermogym model"
-            ) from e
-        raise
     extra = {k: getattr(args, k) for k in ("backend", "workers") if getattr(args, k) is not None}
     if extra.get("backend") == "local":
         extra["backend"] = "process"
@@ -312,9 +304,6 @@ def main(method: str, argv: list[str]) -> int:
 
 
 def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> int:
-    from thermogym.identification.coordinator import run_identification
-    from thermogym.identification.problem import Problem
-
     options: dict[str, Any] = {}
     for cli, (opt, methods) in _METHOD_OPTIONS.items():
         v = getattr(args, cli)
@@ -336,8 +325,6 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     pairs, ratios, fixed = _pairs(args.pair), _ratios(args.ratio), _fixed(args.fix)
     given_noise = _noise_specs(args.input_noise)
     if args.external is None:  # an unknown model or effect: refused before reading data
-        from thermogym.models.registry import get_model
-
         model = get_model(args.model, **({"effects": list(args.effects)} if args.effects else {}))
     recs = load_recordings(args.data, "training", args, prepare=prep)
     validation = (
@@ -363,8 +350,6 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             if sigma is not None:
                 noise[col] = sigma
             else:
-                from thermogym.identification.uncertainty import estimate_input_noise
-
                 noise.update(estimate_input_noise(recs, [col]))
         result = run_identification(
             problem,
@@ -398,8 +383,6 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     if args.history is not None:
         result.save_history(plan.path("--history"))
     if args.plot is not None:
-        from thermogym.identification.coordinator_plots import plot_fit
-
         plot_fit(result, plan.path("--plot"))
     print(result.summary())
     if result.failed:

@@ -21,8 +21,11 @@ Any CSV/Parquet recording works with ``--inputs``/``--outputs`` naming its colum
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from thermogym._cli.common import CliParser, number, plan_outputs, seconds, whole
 from thermogym._cli.data import (
@@ -33,8 +36,40 @@ from thermogym._cli.data import (
     parse_prepare,
 )
 from thermogym.errors import ConfigError
-from thermogym.identification.advice import DEFAULT_TOLERANCE, parse_expect_sign
-from thermogym.identification.linear_fit import X0_CHOICES
+from thermogym.fitresult import data_entry
+
+# n4sid is looked up in its module when called, so that a replacement there is used (the
+# interruption tests replace it)
+from thermogym.identification import n4sid
+from thermogym.identification.advice import (
+    DEFAULT_TOLERANCE,
+    FitWarning,
+    check_cv_score,
+    check_fit,
+    parse_expect_sign,
+)
+from thermogym.identification.crossval import (
+    cross_validate_order,
+    deviation_recordings,
+    make_folds,
+)
+from thermogym.identification.foptd import fit_foptd
+from thermogym.identification.linear_fit import (
+    X0_CHOICES,
+    evaluate_fit,
+    exogenous_roles,
+    predict_fit,
+    signal_arrays,
+)
+from thermogym.identification.linear_plots import (
+    plot_delay_loss,
+    plot_fit,
+    plot_order_cv,
+    plot_singular_values,
+)
+from thermogym.identification.metrics import fit_text, nrmse
+from thermogym.identification.rls import RecursiveFOPTD
+from thermogym.models.registry import get_model
 
 METHODS = ("foptd", "n4sid", "rls")
 
@@ -165,8 +200,6 @@ def build_parser(method: str) -> argparse.ArgumentParser:
 def _signals(args: argparse.Namespace, rec: Any) -> tuple[list[str], list[str]]:
     inputs, outputs = _cols(args.inputs), _cols(args.outputs)
     if args.model:
-        from thermogym.models.registry import get_model
-
         model = get_model(args.model)
         inputs = inputs or list(model.exogenous_names)
         outputs = outputs or list(model.output_names)
@@ -183,8 +216,6 @@ def _signals(args: argparse.Namespace, rec: Any) -> tuple[list[str], list[str]]:
 
 
 def _report(fit: Any, x0: str) -> None:
-    from thermogym.identification.metrics import fit_text
-
     how = {
         "auto": "estimated from each recording's outputs",
         "estimate": "estimated from each recording's outputs",
@@ -204,10 +235,6 @@ def _report(fit: Any, x0: str) -> None:
 
 def _warn(fit: Any, recs: list[Any], args: argparse.Namespace, extra: list[Any]) -> None:
     """Add the generic checks and ``extra`` to the FitResult and print every warning."""
-    import sys
-
-    from thermogym.identification.advice import check_fit
-
     units: dict[str, str] = {}
     for r in recs:
         units.update({c: u for c, u in r.units.items() if u})
@@ -218,10 +245,6 @@ def _warn(fit: Any, recs: list[Any], args: argparse.Namespace, extra: list[Any])
 
 
 def _plot_fits(fit: Any, recs: list[Any], folder: Path, tag: str, x0: str) -> list[Path]:
-    from thermogym.identification.linear_fit import predict_fit
-    from thermogym.identification.linear_plots import plot_fit
-    from thermogym.identification.metrics import nrmse
-
     model = fit.build_model()
     outs = list(model.output_names)
     paths = []
@@ -276,8 +299,6 @@ def _delays(text: str) -> list[int]:
 def early_model(args: argparse.Namespace) -> None:
     """Refuse an unknown ``--model`` (whose signal names are used) before reading data."""
     if getattr(args, "model", None):
-        from thermogym.models.registry import get_model
-
         get_model(args.model)
 
 
@@ -311,8 +332,6 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     figures: list[Path] = []
     extra: list[Any] = []
     if method == "foptd":
-        from thermogym.identification.foptd import fit_foptd
-
         res = fit_foptd(
             train,
             inputs,
@@ -332,16 +351,12 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
                     f"tau = {res.tau[j, i]:7.4g} s"
                 )
         if plots:
-            from thermogym.identification.linear_plots import plot_delay_loss
-
             figures.append(plot_delay_loss(res, plots / "foptd_delay_search.png"))
     elif method == "rls":
         fit = _run_rls(args, train, vals, inputs, outputs, dist)
     else:
         fit, extra = _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures)
     if args.x0 != "auto":
-        from thermogym.identification.linear_fit import evaluate_fit
-
         fit.metrics["train"] = evaluate_fit(fit, train, x0=args.x0)
         if vals:
             fit.metrics["validation"] = evaluate_fit(fit, vals, x0=args.x0)
@@ -359,12 +374,6 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
 
 
 def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyped-def]
-    import numpy as np
-
-    from thermogym.identification.foptd import fit_foptd
-    from thermogym.identification.linear_fit import evaluate_fit, exogenous_roles
-    from thermogym.identification.rls import RecursiveFOPTD
-
     ins, dis = exogenous_roles(train[0], inputs, dist)
     exo = ins + dis
     if args.from_fit:
@@ -401,8 +410,6 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
         y = np.column_stack([rec[c] for c in outputs])
         est.update_many(u, y)
     fit = est.to_fitresult()
-    from thermogym.fitresult import data_entry
-
     fit.data = [data_entry(r, "train") for r in train] + [data_entry(r, "validation") for r in vals]
     fit.metrics["train"] = evaluate_fit(fit, train)
     if vals:
@@ -419,15 +426,6 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
 
 
 def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # type: ignore[no-untyped-def]
-
-    from thermogym.identification.crossval import (
-        cross_validate_order,
-        deviation_recordings,
-        make_folds,
-    )
-    from thermogym.identification.metrics import fit_text
-    from thermogym.identification.n4sid import n4sid
-
     decimate: int | str = args.decimate
     opm = args.operating_point or "auto"
     tol = float(args.cv_tolerance)
@@ -445,9 +443,6 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     notes: list[Any] = []
     folds = None
     if args.folds is not None or opm == "auto":
-        from thermogym.identification.advice import FitWarning
-        from thermogym.identification.linear_fit import exogenous_roles, signal_arrays
-
         signal_arrays(train, inputs, outputs, min_samples=8, what="N4SID")  # checked first
 
         ins, dis = exogenous_roles(train[0], inputs, dist)
@@ -493,8 +488,6 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
             )
     common["operating_point_mode"] = opm
     if args.folds is not None and opm in cvs:
-        from thermogym.identification.advice import check_cv_score
-
         cv = cvs[opm]
         order = cv.chosen_order
         k = len(cv.folds)
@@ -508,7 +501,7 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
         )
         for row in cv.table():
             print(f"    n = {row['order']:3d}  TA {fit_text(row['TA'])}  VA {fit_text(row['VA'])}")
-    res = n4sid(
+    res = n4sid.n4sid(
         train,
         inputs,
         outputs,
@@ -530,8 +523,6 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
         f"{res.seconds:.2f} s"
     )
     if plots:
-        from thermogym.identification.linear_plots import plot_order_cv, plot_singular_values
-
         figures.append(
             plot_singular_values(
                 res.decomposition.singular_values, plots / "singular_values.png", chosen=res.order

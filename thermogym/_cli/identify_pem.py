@@ -24,6 +24,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+import numpy as np
+
 from thermogym._cli.common import CliParser, choice_list, plan_outputs, seconds, whole
 from thermogym._cli.data import (
     add_data_options,
@@ -32,9 +34,16 @@ from thermogym._cli.data import (
     load_recordings,
     parse_prepare,
 )
-from thermogym.errors import ConfigError
-from thermogym.identification.advice import parse_expect_sign
+from thermogym._cli.identify_linear import _cols, _plot_fits, _report, _warn, early_model
+from thermogym._cli.identify_linear import _signals as signals
+from thermogym.errors import ConfigError, IdentificationError
+
+# pem is looked up in its module when called, so that a replacement there is used (the
+# interruption tests replace it)
+from thermogym.identification import pem
+from thermogym.identification.advice import parse_expect_sign, structure_warnings
 from thermogym.identification.linear_fit import X0_CHOICES
+from thermogym.identification.ssest import identify_auto, ssest
 
 METHODS = ("arx", "armax", "oe", "bj", "sopdt", "ssest", "auto")
 _OP_MODES = ("auto", "mean", "none", "initial", "rest")
@@ -209,15 +218,10 @@ def choose_operating_point(
     train: list[Any], inputs: list[str], outputs: list[str], dist: list[str] | None, folds: int
 ) -> tuple[str, dict[str, float]]:
     """``"mean"`` or ``"none"``: whichever ARX cross-validates better on the training data."""
-    import numpy as np
-
-    from thermogym.errors import IdentificationError
-    from thermogym.identification.pem import pem
-
     scores = {}
     for mode in ("mean", "none"):
         try:
-            r = pem(
+            r = pem.pem(
                 train,
                 inputs,
                 outputs,
@@ -237,8 +241,6 @@ def choose_operating_point(
 
 def main(method: str, argv: list[str]) -> int:
     """Run ``thermogym identify METHOD ARGS``."""
-    from thermogym._cli.identify_linear import _cols, early_model
-
     if method not in METHODS:
         raise ConfigError(f"unknown PEM method {method!r}; expected one of {METHODS}")
     args = build_parser(method).parse_args(hoist_recordings(argv))
@@ -256,9 +258,6 @@ def main(method: str, argv: list[str]) -> int:
 
 
 def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> int:
-    from thermogym._cli.identify_linear import _cols, _plot_fits, _report
-    from thermogym._cli.identify_linear import _signals as signals
-
     train = load_recordings(args.data, "training", args, prepare=prep)
     vals = load_recordings(args.validate, "validation", args, prepare=prep)
     inputs, outputs = signals(args, train[0])
@@ -284,10 +283,8 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
         "validate": vals,
     }
     if method in ("arx", "armax", "oe", "bj"):
-        from thermogym.identification.pem import pem
-
         orders = args.pem_orders
-        res = pem(
+        res = pem.pem(
             train,
             inputs,
             outputs,
@@ -305,15 +302,11 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             + ", ".join(f"{k} = {v}" for k, v in o.items())
         )
     elif method == "sopdt":
-        from thermogym.identification.pem import sopdt
-
-        res = sopdt(train, inputs, outputs, max_delay_s=args.max_delay_s, **common)
+        res = pem.sopdt(train, inputs, outputs, max_delay_s=args.max_delay_s, **common)
         print(f"SOPDT in {res.seconds:.2f} s:")
         for name, v in res.fit.parameters.items():
             print(f"  {name:<28} {v:12.5g} ± {res.fit.stderr.get(name, float('nan')):.3g}")
     elif method == "ssest":
-        from thermogym.identification.ssest import ssest
-
         orders_r, delay = args.orders_r, args.delay
         res = ssest(
             train,
@@ -336,8 +329,6 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             f"({st['structure_source']}); refinement: {st.get('status', 'none')}"
         )
     else:
-        from thermogym.identification.ssest import identify_auto
-
         fams = list(args.families)
         res = identify_auto(
             train,
@@ -388,9 +379,6 @@ def _structure_warn(
     fit: Any, method: str, args: argparse.Namespace, train: list[Any], vals: list[Any]
 ) -> None:
     """Print and store the warnings: fits below zero, gain signs, structure at an edge."""
-    from thermogym._cli.identify_linear import _warn
-    from thermogym.identification.advice import structure_warnings
-
     orders = None
     if method == "ssest" and args.order is None:
         a, _, b = args.orders.partition(":")

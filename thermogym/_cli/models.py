@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from thermogym.models.registry import get_model, model_names
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare the options."""
@@ -21,8 +23,6 @@ def _generic_note(name: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """List the models."""
-    from thermogym.models.registry import get_model, model_names
-
     names = [args.name] if args.name else model_names()
     descs = []
     for n in names:

@@ -21,6 +21,11 @@ from thermogym._cli.common import plan_outputs, probability, whole
 from thermogym._cli.compare import X0_OPTION, load_one
 from thermogym._cli.data import add_data_options
 
+# resid is looked up in its module when called, so that a replacement there is used (the
+# interruption tests replace it)
+from thermogym.identification import compare
+from thermogym.identification.linear_plots import plot_resid
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare the options."""
@@ -55,12 +60,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Test and print the verdicts."""
-    from thermogym.identification.compare import resid
-
     plan = plan_outputs(args, files={"plot": "figure", "json": "json"}, inputs=("fit", "data"))
     with plan:
         rec = load_one(args.data, args)
-        tests = resid(
+        tests = compare.resid(
             args.fit, rec, x0=args.x0, k_step=args.k_step, max_lag=args.max_lag, alpha=args.alpha
         )
         what = f"{args.k_step}-step prediction errors" if args.k_step else "simulation residuals"
@@ -82,8 +85,6 @@ def run(args: argparse.Namespace) -> int:
                 ok = "independent" if p >= args.alpha else "CORRELATED with the input"
                 print(f"    × {u}: p = {p:.3g}: {ok}")
         if args.plot:
-            from thermogym.identification.linear_plots import plot_resid
-
             plot_resid(tests, plan.path("--plot"), dt=rec.dt)
             print(f"  figure: {args.plot}")
         if args.json:

@@ -8,9 +8,17 @@ from typing import Any
 
 import numpy as np
 
+# write_recording and plot_recordings are looked up in their modules when called, so that a
+# replacement there is used (the interruption tests replace them)
+from thermogym import plotting, recording
 from thermogym._cli.common import plan_outputs
 from thermogym._cli.data import add_data_options, load_recordings
 from thermogym.errors import ConfigError
+from thermogym.fitresult import load_fit
+from thermogym.identification.linear_fit import LINEAR_MODELS, predict, simulate_recording
+from thermogym.identification.metrics import fit_text, nrmse
+from thermogym.models.registry import get_model
+from thermogym.recording import Recording
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -61,11 +69,6 @@ def parse_sets(items: list[str]) -> dict[str, float]:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate and write the result."""
-    from thermogym.fitresult import load_fit
-    from thermogym.identification.linear_fit import LINEAR_MODELS
-    from thermogym.models.registry import get_model
-    from thermogym.recording import Recording, write_recording
-
     plan = plan_outputs(
         args, files={"out": "recording", "plot": "figure"}, inputs=("inputs", "params")
     )
@@ -95,8 +98,6 @@ def run(args: argparse.Namespace) -> int:
     rec.validate_for(model, outputs=False)
     rec.check_values([s.name for s in model.exogenous])
     if linear is not None:
-        from thermogym.identification.linear_fit import predict, simulate_recording
-
         linear.parameters.update(sets)
         pred = predict(linear, rec, x0=args.x0)
         out = simulate_recording(linear, rec, x0=pred.x0)
@@ -123,20 +124,16 @@ def run(args: argparse.Namespace) -> int:
             meta={"inputs": str(args.inputs)},
         )
     with plan:
-        write_recording(out, plan.path("--out"))
+        recording.write_recording(out, plan.path("--out"))
         if args.plot:
-            from thermogym.plotting import plot_recordings
-
             names = [n for n in model.output_names if n in rec]
-            plot_recordings(
+            plotting.plot_recordings(
                 [rec],
                 plan.path("--plot"),
                 signals=names or list(model.output_names),
                 overlay={"simulation": {n: out[n] for n in model.output_names}},
             )
     print(f"simulated {model.name} on {rec.n_samples} samples (dt = {rec.dt:g} s) -> {args.out}")
-    from thermogym.identification.metrics import fit_text, nrmse
-
     for name in model.output_names:
         if name in rec and np.isfinite(rec[name]).all():
             print(f"  {name:<24} fit {fit_text(float(nrmse(rec[name], out[name])))}")

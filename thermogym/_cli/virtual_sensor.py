@@ -19,9 +19,17 @@ from typing import Any
 
 import numpy as np
 
+# write_recording is looked up in its module when called, so that a replacement there is used
+# (the interruption tests replace it)
+from thermogym import recording
 from thermogym._cli.common import plan_outputs, positive
 from thermogym._cli.data import add_data_options, load_recordings
 from thermogym.errors import ConfigError
+from thermogym.estimation import consistency, normalized_error_squared
+from thermogym.firmware.export import sensor_from_fit
+from thermogym.firmware.plots import plot_virtual_sensor
+from thermogym.identification.metrics import fit_text, nrmse, rmse
+from thermogym.recording import Recording
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -151,11 +159,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _estimate(args: argparse.Namespace, plan: Any) -> int:
-    from thermogym.estimation import consistency
-    from thermogym.firmware.export import sensor_from_fit
-    from thermogym.identification.metrics import fit_text, nrmse, rmse
-    from thermogym.recording import Recording, write_recording
-
     rest = _pairs(args.rest)
     sensor, fit = sensor_from_fit(
         args.fit,
@@ -201,7 +204,7 @@ def _estimate(args: argparse.Namespace, plan: Any) -> int:
             "reference": sensor.reference,
         },
     )
-    write_recording(out, plan.path("--out"))
+    recording.write_recording(out, plan.path("--out"))
     print(
         f"virtual sensor ({args.method}, order {sensor.n_states}, dt {sensor.dt:g} s): "
         f"{rec.n_samples} samples -> {args.out}; exogenous {list(sensor.exogenous_names)}, "
@@ -226,8 +229,6 @@ def _estimate(args: argparse.Namespace, plan: Any) -> int:
             )
         ok = np.isfinite(Y).all(axis=1)
         if ok.sum() > 2:
-            from thermogym.estimation import normalized_error_squared
-
             # the recorded hidden signals carry sensor noise: add it to the estimate's covariance
             cov = est.cov[:, idx][:, :, idx] + np.eye(len(idx)) * args.measurement_std**2
             rep = consistency(normalized_error_squared(Y - Yh, cov), len(have))
@@ -246,8 +247,6 @@ def _estimate(args: argparse.Namespace, plan: Any) -> int:
                 f"{'consistent' if rep.consistent else 'not consistent'}"
             )
     if args.plot:
-        from thermogym.firmware.plots import plot_virtual_sensor
-
         plot_virtual_sensor(
             rec.time,
             {n: est[n] for n in est.names},

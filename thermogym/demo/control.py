@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from thermogym.controllers import run_benchmark
+from thermogym.controllers.tables import kpi_axes, pareto_front
 from thermogym.demo.core import DemoContext, StageResult
 
 __all__ = ["CONTROLLERS", "stage_control"]
@@ -24,9 +26,6 @@ SCENARIO = "setpoint-steps"
 
 def stage_control(ctx: DemoContext, res: StageResult) -> None:
     """Run the grid, summarise its KPIs, keep the harness's figures."""
-    from thermogym.controllers import run_benchmark
-    from thermogym.controllers.tables import kpi_axes, pareto_front
-
     ctrls = ("onoff", "pid-high", "ppo") if ctx.quick else CONTROLLERS
     seeds = [ctx.seed] if ctx.quick else [ctx.seed, ctx.seed + 1]
     folder = ctx.path("control", "valve")

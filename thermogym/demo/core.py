@@ -41,6 +41,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
+from tqdm.auto import tqdm
+
 from thermogym import __version__
 from thermogym._fileio import atomic_write_text
 from thermogym.errors import ConfigError
@@ -248,8 +250,6 @@ class DemoContext:
         if not self.bars:
             yield from items  # no cursor codes in pipes and logs
             return
-        from tqdm.auto import tqdm
-
         with tqdm(items, desc=f"      {desc}", total=total, leave=False, file=sys.stderr) as it:
             yield from it
 

@@ -12,9 +12,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from thermogym._fileio import atomic_write
 from thermogym.demo.core import DemoContext, StageResult
 from thermogym.demo.identify import save_fit
 from thermogym.demo.rigs import CONCEALED
+from thermogym.fitresult import load_fit
+from thermogym.identification.diagnosis import diagnose
 
 __all__ = ["load_diagnose", "stage_diagnose"]
 
@@ -26,9 +29,6 @@ def _f(d: dict[str, Any], k: str) -> float:
 
 def stage_diagnose(ctx: DemoContext, res: StageResult) -> None:
     """Diagnose the strut recordings, write the diagnosis report and the augmented fit."""
-    from thermogym._fileio import atomic_write
-    from thermogym.identification.diagnosis import diagnose
-
     ctx.need("recordings")
     strut = ctx.products["recordings"]["strut/steps"]
     lines: list[str] = []
@@ -114,8 +114,6 @@ def stage_diagnose(ctx: DemoContext, res: StageResult) -> None:
 
 def load_diagnose(ctx: DemoContext) -> None:
     """Products of an earlier diagnosis in ``ctx.out``: the augmented model's FitResult."""
-    from thermogym.fitresult import load_fit
-
     p = ctx.out / "fits" / "strut_augmented.json"
     if p.is_file():
         ctx.products["fit_strut_augmented"] = load_fit(p)

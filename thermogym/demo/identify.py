@@ -19,7 +19,23 @@ from typing import Any
 
 import numpy as np
 
-from thermogym.demo.core import DemoContext, StageResult
+from thermogym.demo.core import DemoContext, StageResult, StageSkipped, Table
+from thermogym.demo.rigs import axt211_specimen
+from thermogym.fitresult import load_fit
+from thermogym.identification.coordinator import run_identification
+from thermogym.identification.foptd import fit_foptd
+from thermogym.identification.greybox_axt211 import _SPEC, MECHANICAL, THERMAL, identify_axt211
+from thermogym.identification.linear_plots import plot_order_cv
+from thermogym.identification.n4sid import n4sid
+from thermogym.identification.prepare import prepare
+from thermogym.models.registry import get_model
+from thermogym.plotting import plot_recordings
+from thermogym.rigs import get_rig
+from thermogym.studies.axt211 import rig_equivalents
+from thermogym.studies.spindle import OUTPUTS as SPINDLE_OUTPUTS
+from thermogym.studies.spindle import PREPARE, SpindleData, table5
+from thermogym.studies.strut import OUTPUTS as STRUT_OUTPUTS
+from thermogym.studies.strut import StrutStudyConfig, run_strut_study, strut_problem
 
 __all__ = ["load_identify", "save_fit", "stage_identify"]
 
@@ -50,9 +66,6 @@ def _mean(d: Any, key: str = "mnrmse") -> float:
 
 def _prepare_spindle(ctx: DemoContext, recs: dict[str, list[Any]]) -> tuple[Any, list[Any]]:
     """The raw spindle days prepared (paper 001 section 2.3.1), and a table row per day."""
-    from thermogym.identification.prepare import prepare
-    from thermogym.studies.spindle import PREPARE, SpindleData
-
     t0 = time.perf_counter()
     runs: dict[tuple[int, int], Any] = {}
     validation: dict[int, Any] = {}
@@ -81,10 +94,6 @@ def _prepare_spindle(ctx: DemoContext, recs: dict[str, list[Any]]) -> tuple[Any,
 
 
 def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> None:
-    from thermogym.identification.linear_plots import plot_order_cv
-    from thermogym.identification.n4sid import n4sid
-    from thermogym.studies.spindle import OUTPUTS, table5
-
     data, prep_rows = _prepare_spindle(ctx, recs)
     ctx.products["spindle_data"] = data
     res.table(
@@ -132,7 +141,7 @@ def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> 
     fit = n4sid(
         data.fold(train_speed, 1),
         ["speed", "T_amb"],
-        list(OUTPUTS),
+        list(SPINDLE_OUTPUTS),
         order,
         disturbances=["T_amb"],
         feedthrough=True,
@@ -151,25 +160,16 @@ def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> 
 
 
 def _strut(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> None:
-    from thermogym.identification.coordinator import run_identification
-    from thermogym.identification.foptd import fit_foptd
-    from thermogym.studies.strut import (
-        OUTPUTS,
-        StrutStudyConfig,
-        run_strut_study,
-        strut_problem,
-    )
-
     strut = recs["strut/steps"]
     train, val = strut[:1], strut[1:]
-    fo = fit_foptd(train, ["feed_rate"], list(OUTPUTS), max_delay_s=1800.0, validate=val)
+    fo = fit_foptd(train, ["feed_rate"], list(STRUT_OUTPUTS), max_delay_s=1800.0, validate=val)
     rel = save_fit(ctx, fo.fit, "strut_foptd")
     ctx.products["fit_strut_foptd"] = fo.fit
     ctx.products.setdefault("fit_rows", []).append(
         [
             "strut",
             "FOPTD set (least squares + delay search)",
-            f"{3 * len(OUTPUTS)} parameters",
+            f"{3 * len(STRUT_OUTPUTS)} parameters",
             _mean(fo.fit.metrics.get("train")),
             _mean(fo.fit.metrics.get("validation")),
             f"`{rel}`",
@@ -179,7 +179,7 @@ def _strut(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> No
         ["output", "K [K/(m/min)]", "T [min]", "τ [min]"],
         [
             [o, float(fo.K[j, 0]), float(fo.T[j, 0]) / 60.0, float(fo.tau[j, 0]) / 60.0]
-            for j, o in enumerate(OUTPUTS)
+            for j, o in enumerate(STRUT_OUTPUTS)
         ],
         "Strut FOPTD set at 20 m/min (paper 000 Table 1, eqs 9-12)",
     )
@@ -239,15 +239,6 @@ def _strut(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> No
 
 
 def _axt211(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> None:
-    from thermogym.identification.greybox_axt211 import (
-        _SPEC,
-        MECHANICAL,
-        THERMAL,
-        identify_axt211,
-    )
-    from thermogym.models.registry import get_model
-    from thermogym.plotting import plot_recordings
-
     steps = recs["axt211/steps"]
     train_ids = {"axt211-step-24V-25C", "axt211-step-19V-0C", "axt211-step-29V-50C"}
     train = [r for r in steps if r.experiment_id in train_ids]
@@ -367,8 +358,6 @@ def stage_identify(ctx: DemoContext, res: StageResult) -> None:
 
 
 def _fit_table(rows: list[list[Any]]) -> Any:
-    from thermogym.demo.core import Table
-
     return Table(
         [
             "plant",
@@ -397,10 +386,6 @@ def _axt211_truth(seed: int) -> dict[str, float]:
 
     The rig's true plant is not the model (:func:`thermogym.studies.axt211.rig_equivalents`).
     """
-    from thermogym.demo.rigs import axt211_specimen
-    from thermogym.rigs import get_rig
-    from thermogym.studies.axt211 import rig_equivalents
-
     return rig_equivalents(get_rig("axt211").with_specimen(axt211_specimen(seed)[1]))
 
 
@@ -410,9 +395,6 @@ def load_identify(ctx: DemoContext) -> None:
     The prepared spindle days are rebuilt from the recordings only when a stage
     needs them (``spindle_data``).
     """
-    from thermogym.demo.core import StageSkipped
-    from thermogym.fitresult import load_fit
-
     found = False
     for name, key in _FIT_PRODUCTS.items():
         p = ctx.out / "fits" / f"{name}.json"

@@ -17,6 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from thermogym.models.registry import get_model
 from thermogym.plotting import plot_recordings, save_figure, time_axis
 
 __all__ = [
@@ -31,8 +32,6 @@ Figs = list[tuple[Path, str]]
 
 def rig_figures(ctx: Any, recs: Mapping[str, Sequence[Any]]) -> Figs:
     """Stage 1: an AXT211 step against the nominal model, staircase, strut steps, spindle day."""
-    from thermogym.models.registry import get_model
-
     out: Figs = []
     steps = recs["axt211/steps"]
     step = next((r for r in steps if r.experiment_id == "axt211-step-24V-25C"), steps[0])

@@ -17,10 +17,14 @@ import math
 from collections.abc import Callable
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
+from thermogym.controllers import build_controller
 from thermogym.demo.core import DemoContext, StageResult
+from thermogym.demo.plots import closed_loop_figure, strut_prediction_figure
 from thermogym.demo.rigs import CONCEALED, axt211_specimen
+from thermogym.envs import ParameterRefresh  # importing thermogym.envs registers them
 
 __all__ = ["stage_refresh"]
 
@@ -51,13 +55,6 @@ def _rollout(
 
 
 def _valve(ctx: DemoContext, res: StageResult) -> None:
-    import gymnasium as gym
-
-    import thermogym.envs  # noqa: F401 - registers the environments
-    from thermogym.controllers import build_controller
-    from thermogym.demo.plots import closed_loop_figure
-    from thermogym.envs import ParameterRefresh
-
     fit_path = ctx.products["fit_paths"]["axt211_greybox"]
     truth = ctx.products.get("axt211_truth", {})
     hours = 1.0 if ctx.quick else 2.0
@@ -144,11 +141,6 @@ def _valve(ctx: DemoContext, res: StageResult) -> None:
 
 
 def _strut(ctx: DemoContext, res: StageResult) -> None:
-    import gymnasium as gym
-
-    import thermogym.envs  # noqa: F401
-    from thermogym.demo.plots import strut_prediction_figure
-
     hours = 4.0 if ctx.quick else 8.0
     kw: dict[str, Any] = {
         "episode_s": hours * 3600.0,

@@ -12,10 +12,17 @@ Nothing downstream is told about either; stage 3 has to find them.
 
 from __future__ import annotations
 
+import json
 import time
 from typing import Any
 
-from thermogym.demo.core import DemoContext, StageResult
+import numpy as np
+
+from thermogym.demo.core import DemoContext, StageResult, StageSkipped
+from thermogym.demo.plots import rig_figures
+from thermogym.recording import read_recording, write_recording
+from thermogym.rigs import get_rig, run_experiment, to_recording
+from thermogym.rigs.axt211 import specimen_spread
 
 __all__ = ["CONCEALED", "axt211_specimen", "load_rigs", "stage_rigs"]
 
@@ -31,19 +38,12 @@ def axt211_specimen(seed: int) -> tuple[int, Any]:
     (:class:`~thermogym.rigs.base.Specimens` of one; paper 002 section VIII
     spread, :func:`thermogym.rigs.axt211.specimen_spread`).
     """
-    import numpy as np
-
-    from thermogym.rigs.axt211 import specimen_spread
-
     s = int(seed) + 7
     return s, specimen_spread(np.random.default_rng(s), n=1)
 
 
 def _run_axt211(ctx: DemoContext, proto: str, folder: Any, seed: int) -> list[Any]:
     """Run an AXT211 protocol on the demo's specimen; write CSV recordings."""
-    from thermogym.recording import write_recording
-    from thermogym.rigs import get_rig, to_recording
-
     _, spec = axt211_specimen(ctx.seed)
     rig = get_rig("axt211").with_specimen(spec)
     recs = [to_recording(r, "axt211") for r in rig.run(proto, seed=seed)]
@@ -62,9 +62,6 @@ def _spindle_speeds(ctx: DemoContext) -> tuple[list[int], list[int]]:
 
 def stage_rigs(ctx: DemoContext, res: StageResult) -> None:
     """Run the AXT211, strut and spindle experiments and write the recordings."""
-    from thermogym.demo import plots
-    from thermogym.rigs import run_experiment
-
     speeds, vspeeds = _spindle_speeds(ctx)
     s = ctx.seed
     jobs: list[tuple[str, str, dict[str, Any], str, int, list[str]]] = [
@@ -102,7 +99,7 @@ def stage_rigs(ctx: DemoContext, res: StageResult) -> None:
         rows,
         "Experiments run (CSV with a .meta.json sidecar, or Parquet)",
     )
-    for path, caption in plots.rig_figures(ctx, recs):
+    for path, caption in rig_figures(ctx, recs):
         res.figure(ctx.rel(path), caption)
     n_raw = max(r.n_samples for r in recs["spindle/run-in"])
     res.shows = (
@@ -138,9 +135,6 @@ def stage_rigs(ctx: DemoContext, res: StageResult) -> None:
 
 def load_rigs(ctx: DemoContext) -> None:
     """Products of an earlier rigs stage in ``ctx.out``: its recordings, by experiment."""
-    from thermogym.demo.core import StageSkipped
-    from thermogym.recording import read_recording
-
     root = ctx.out / "recordings"
     if not root.is_dir():
         raise StageSkipped(f"no earlier recordings in {str(root)!r}")
@@ -151,8 +145,6 @@ def load_rigs(ctx: DemoContext) -> None:
             continue
         manifest = folder / "manifest.json"
         if manifest.is_file():
-            import json
-
             names = [e["file"] for e in json.loads(manifest.read_text())["recordings"]]
         else:  # the AXT211 experiments are written one by one, without a manifest
             names = sorted(

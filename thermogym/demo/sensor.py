@@ -17,24 +17,23 @@ import numpy as np
 
 from thermogym.demo.core import DemoContext, StageResult
 from thermogym.demo.identify import save_fit
+from thermogym.firmware.export import sensor_from_fit
+from thermogym.firmware.plots import plot_virtual_sensor
+from thermogym.firmware.selftest import run_case
+from thermogym.firmware.toolchain import (
+    avr_tools_available,
+    host_compiler,
+    run_host_test,
+    run_simavr,
+)
+from thermogym.identification.metrics import nrmse, rmse
+from thermogym.studies.spindle import INTERNAL, SURFACE, virtual_sensor_fit
 
 __all__ = ["stage_sensor"]
 
 
 def stage_sensor(ctx: DemoContext, res: StageResult) -> None:
     """Identify, run and export the virtual sensor; build and test its firmware."""
-    from thermogym.firmware.export import sensor_from_fit
-    from thermogym.firmware.plots import plot_virtual_sensor
-    from thermogym.firmware.selftest import run_case
-    from thermogym.firmware.toolchain import (
-        avr_tools_available,
-        host_compiler,
-        run_host_test,
-        run_simavr,
-    )
-    from thermogym.identification.metrics import nrmse, rmse
-    from thermogym.studies.spindle import INTERNAL, SURFACE, virtual_sensor_fit
-
     ctx.need("spindle_data")
     data = ctx.products["spindle_data"]
     train_speed = 6000 if (6000, 1) in data.runs else sorted(data.runs)[0][0]
