@@ -422,7 +422,7 @@ def test_dataset_recordings_are_accepted_everywhere(tmp_path, capsys, strut_csv)
     assert main([*argv, str(strut_csv)]) == 0
     assert json.loads((tmp_path / "g.json").read_text())["model"] == "strut"
     assert main([*argv, "hampel_window=0", str(strut_csv)]) == 2
-    _one_error_line(capsys, "hampel_window=0", ">= 1")
+    _one_error_line(capsys, "--prepare hampel_window = 0", ">= 1")
 
 
 # ---------------------------------------------------------------- demo --only
