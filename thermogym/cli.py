@@ -1,12 +1,16 @@
 """The ``thermogym`` command line.
 
-Each sub-command lives in its own module under :mod:`thermogym._cli`, which
-provides ``add_arguments(parser)`` and ``run(args) -> int`` and imports what it
+Each sub-command is two modules under :mod:`thermogym._cli` (its layout is
+described there): ``NAME.py`` declares the options (``add_arguments(parser)``,
+argparse and the light helpers of :mod:`thermogym._cli.common` only) and
+``NAME_run.py`` does the work (``run(args) -> int``); each imports what it
 needs at its top. This module is the one place that defers imports: the table
-:data:`COMMANDS` names each command's module, and a command's module is
-imported (and its options declared) only when that command is parsed, so
-``thermogym --help`` loads no command and ``thermogym NAME ...`` loads only
-``NAME``'s. Nothing else imports this module.
+:data:`COMMANDS` names both modules of each command; the options module is
+imported (and its options declared) only when that command is parsed or its
+help formatted, and the work module only once the command line parsed
+without error. So ``thermogym --help`` loads no command, ``thermogym NAME
+--help`` and a bad option load only ``NAME``'s options, and a run loads
+``NAME``'s work. Nothing else imports this module.
 
 Exit status and messages (the same for every command):
 
@@ -44,27 +48,68 @@ from thermogym import __version__
 from thermogym._cli.common import CliParser, Interrupted, UsageError, one_line
 from thermogym.errors import ThermogymError
 
-#: command -> (module, one-line help)
-COMMANDS: dict[str, tuple[str, str]] = {
-    "models": ("thermogym._cli.models", "list the models with their signals and parameters"),
-    "simulate": ("thermogym._cli.simulate", "simulate a model on the inputs of a recording"),
-    "experiment": ("thermogym._cli.experiment", "run a virtual test rig protocol"),
-    "identify": ("thermogym._cli.identify", "fit a model to recordings, write a FitResult"),
+#: command -> (options module, work module, one-line help)
+COMMANDS: dict[str, tuple[str, str, str]] = {
+    "models": (
+        "thermogym._cli.models",
+        "thermogym._cli.models_run",
+        "list the models with their signals and parameters",
+    ),
+    "simulate": (
+        "thermogym._cli.simulate",
+        "thermogym._cli.simulate_run",
+        "simulate a model on the inputs of a recording",
+    ),
+    "experiment": (
+        "thermogym._cli.experiment",
+        "thermogym._cli.experiment_run",
+        "run a virtual test rig protocol",
+    ),
+    "identify": (
+        "thermogym._cli.identify",
+        "thermogym._cli.identify_run",
+        "fit a model to recordings, write a FitResult",
+    ),
     "compare": (
         "thermogym._cli.compare",
+        "thermogym._cli.compare_run",
         "several fitted models on one recording (fit per output)",
     ),
-    "resid": ("thermogym._cli.resid", "residual whiteness and input cross-correlation tests"),
-    "diagnose": ("thermogym._cli.diagnose", "locate a model mismatch and name the missing physics"),
-    "virtual-sensor": ("thermogym._cli.virtual_sensor", "estimate hidden temperatures (Kalman)"),
-    "firmware": ("thermogym._cli.firmware", "export the virtual sensor as C firmware"),
-    "bench": ("thermogym._cli.bench", "benchmark controllers on energy, lifetime, accuracy"),
-    "demo": ("thermogym._cli.demo", "run the whole loop on embedded defaults"),
+    "resid": (
+        "thermogym._cli.resid",
+        "thermogym._cli.resid_run",
+        "residual whiteness and input cross-correlation tests",
+    ),
+    "diagnose": (
+        "thermogym._cli.diagnose",
+        "thermogym._cli.diagnose_run",
+        "locate a model mismatch and name the missing physics",
+    ),
+    "virtual-sensor": (
+        "thermogym._cli.virtual_sensor",
+        "thermogym._cli.virtual_sensor_run",
+        "estimate hidden temperatures (Kalman)",
+    ),
+    "firmware": (
+        "thermogym._cli.firmware",
+        "thermogym._cli.firmware_run",
+        "export the virtual sensor as C firmware",
+    ),
+    "bench": (
+        "thermogym._cli.bench",
+        "thermogym._cli.bench_run",
+        "benchmark controllers on energy, lifetime, accuracy",
+    ),
+    "demo": (
+        "thermogym._cli.demo",
+        "thermogym._cli.demo_run",
+        "run the whole loop on embedded defaults",
+    ),
 }
 
 
 class _CommandParser(CliParser):
-    """A command's parser: its module is imported and its options declared on first use.
+    """A command's parser: its options module is imported and declared on first use.
 
     argparse hands a sub-command's parser its arguments (``parse_known_args``)
     only when that command is named, and formats its help only then: until
@@ -78,7 +123,7 @@ class _CommandParser(CliParser):
         self._declared = False
 
     def load(self) -> ModuleType:
-        """The command's module, its options declared on this parser (once)."""
+        """The command's options module, its options declared on this parser (once)."""
         mod = importlib.import_module(self.module)
         if not self._declared:
             self._declared = True
@@ -103,7 +148,7 @@ class _CommandParser(CliParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every sub-command (each command's module loads on use)."""
+    """The argument parser with every sub-command (each command's options load on use)."""
     parser = CliParser(
         prog="thermogym",
         description="Identified thermal plants as Gymnasium environments: rigs, "
@@ -111,11 +156,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"thermogym {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_CommandParser)
-    for name, (module, help_text) in COMMANDS.items():
-        if importlib.util.find_spec(module) is None:
+    for name, (options, work, help_text) in COMMANDS.items():
+        if importlib.util.find_spec(options) is None:
             continue  # a command whose module is not part of this build
-        p = sub.add_parser(name, help=help_text, description=help_text, module=module)
-        p.set_defaults(_module=module)
+        p = sub.add_parser(name, help=help_text, description=help_text, module=options)
+        p.set_defaults(_module=work)
     return parser
 
 

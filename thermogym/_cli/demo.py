@@ -8,13 +8,14 @@ files; exit status 1 when a stage failed (the report says which and why).
 from __future__ import annotations
 
 import argparse
-import sys
+from collections.abc import Sequence
 
-# run_demo is looked up in its module when called, so that a replacement there is used (the
-# tests that check bad input is refused before any work)
-from thermogym import demo
-from thermogym._cli.common import Interrupted, plan_outputs, whole
-from thermogym.errors import ConfigError
+from thermogym._cli.common import CliParser, whole
+
+#: Keys of the demo's stages (:func:`thermogym.demo.stage_keys`), written out so that the
+#: options load without the stages (tests/test_demo.py checks they match). ``--only`` is
+#: checked against the stage table itself when the demo runs (:func:`check_only`).
+STAGE_KEYS = ("rigs", "identify", "diagnose", "envs", "control", "sensor")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -33,48 +34,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--only",
         action="append",
         metavar="STAGE",
-        choices=demo.stage_keys(),
-        help=f"run only this stage (repeatable): {', '.join(demo.stage_keys())}",
+        help=f"run only this stage (repeatable): {', '.join(STAGE_KEYS)}",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress lines or bars")
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the demo; exit status 1 when a stage failed, 2 when none could run."""
-    plan_outputs(args, folders=("out",), unstaged=("out",))  # the demo stages its own files
-    try:
-        results = demo.run_demo(
-            args.out,
-            quick=args.quick,
-            seed=args.seed,
-            only=args.only,
-            progress=not args.no_progress,
-        )
-    except demo.DemoInterrupted as e:
-        if not e.reports:
-            raise Interrupted(
-                f"stage {e.stage!r} published nothing; every file in {args.out} is as it was"
-            ) from None
-        raise Interrupted(
-            f"stage {e.stage!r} published nothing; stage(s) {e.finished} finished before it "
-            f"and replaced their files, so {args.out}/report.html and report.md were rewritten "
-            f"to match (the section of {e.stage!r} is the earlier run's, marked)"
-        ) from None
-    if args.no_progress:  # the progress lines said it otherwise
-        status = ", ".join(f"{r.key} {r.status}" for r in results)
-        print(f"report: {args.out}/report.html (and report.md); stages: {status}")
-    if results and all(r.status == "skipped" for r in results):
-        first = results[0]
-        raise ConfigError(
-            f"no stage ran: {first.key!r} was skipped, {first.error}; run the stages it needs "
-            f"first (thermogym demo --out {args.out}, or add --only for them)"
-        )
-    failed = [r.key for r in results if r.status == "failed"]
-    if failed:
-        print(
-            f"thermogym demo: stage(s) {failed} failed; see {args.out}/report.html and "
-            f"{args.out}/logs/",
-            file=sys.stderr,
-        )
-        return 1
-    return 0
+def check_only(only: Sequence[str] | None, keys: Sequence[str]) -> None:
+    """Refuse a ``--only`` that is not among ``keys``, in argparse's words (exit status 2).
+
+    Examples
+    --------
+    >>> check_only(["rigs"], STAGE_KEYS)
+    >>> check_only(["nope"], STAGE_KEYS)
+    Traceback (most recent call last):
+    ...
+    thermogym._cli.common.UsageError: argument --only: invalid choice: 'nope' (choose from ...
+    """
+    if only:
+        p = CliParser(prog="thermogym demo", add_help=False)
+        p.add_argument("--only", action="append", choices=list(keys))
+        p.parse_args([a for key in only for a in ("--only", key)])
