@@ -1,4 +1,6 @@
-r"""``thermogym bench``: benchmark controllers on energy, lifetime and accuracy.
+r"""The work of ``thermogym bench`` (its options: :mod:`thermogym._cli.bench`).
+
+``thermogym bench``: benchmark controllers on energy, lifetime and accuracy.
 
 Example::
 

@@ -1,4 +1,6 @@
-r"""``thermogym compare FIT [FIT ...] --data REC``: several fitted models on one recording.
+r"""The work of ``thermogym compare`` (its options: :mod:`thermogym._cli.compare`).
+
+``thermogym compare FIT [FIT ...] --data REC``: several fitted models on one recording.
 
 As MATLAB's ``compare``: each FitResult is simulated (or predicted ``--k-step``
 samples ahead) on the recording's inputs; the fit of every output (NRMSE
@@ -19,7 +21,6 @@ from thermogym._cli.common import plan_outputs
 from thermogym._cli.data_run import load_recordings
 from thermogym.errors import ConfigError
 from thermogym.identification.compare import compare
-from thermogym.identification.linear_plots import plot_compare
 from thermogym.identification.metrics import fit_text
 from thermogym.recording import Recording
 
@@ -58,6 +59,9 @@ def run(args: argparse.Namespace) -> int:
             if m.note:
                 print(f"    note: {m.note}")
         if args.plot:
+            # figures only when asked: matplotlib costs ~0.5 s at start-up
+            from thermogym.identification.linear_plots import plot_compare
+
             plot_compare(result, plan.path("--plot"))
             print(f"  figure: {args.plot}")
         if args.json:

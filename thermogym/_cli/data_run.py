@@ -1,4 +1,6 @@
-"""Recordings into a command: files, folders, ``dataset:NAME``; CSV dialect; jitter.
+"""The work of reading recordings and ``--prepare`` (its options: :mod:`thermogym._cli.data`).
+
+Recordings into a command: files, folders, ``dataset:NAME``; CSV dialect; jitter.
 
 Every command that takes a recording reads it through :func:`load_recordings`
 and declares the reading options with :func:`add_data_options`, so the same

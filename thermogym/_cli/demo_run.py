@@ -1,4 +1,6 @@
-"""``thermogym demo``: the whole loop on embedded defaults, with a report.
+"""The work of ``thermogym demo`` (its options: :mod:`thermogym._cli.demo`).
+
+``thermogym demo``: the whole loop on embedded defaults, with a report.
 
 Writes ``OUT/report.html`` (self-contained, every figure embedded),
 ``OUT/report.md`` (its Markdown twin), ``OUT/fits/*.json`` and each stage's

@@ -1,4 +1,6 @@
-"""``thermogym diagnose``: locate a model mismatch and name the missing physics.
+"""The work of ``thermogym diagnose`` (its options: :mod:`thermogym._cli.diagnose`).
+
+``thermogym diagnose``: locate a model mismatch and name the missing physics.
 
 ::
 

@@ -1,4 +1,6 @@
-"""``thermogym experiment RIG PROTOCOL --out DIR``: run a virtual test rig.
+"""The work of ``thermogym experiment`` (its options: :mod:`thermogym._cli.experiment`).
+
+``thermogym experiment RIG PROTOCOL --out DIR``: run a virtual test rig.
 
 Protocol options (``--option KEY=VALUE``) are checked against the protocol's
 own defaults before the rig runs: a list of numbers where the default is a

@@ -1,4 +1,6 @@
-"""``thermogym firmware export fit.json --out DIR``: the virtual sensor as C99 firmware.
+"""The work of ``thermogym firmware`` (its options: :mod:`thermogym._cli.firmware`).
+
+``thermogym firmware export fit.json --out DIR``: the virtual sensor as C99 firmware.
 
 Sub-commands:
 

@@ -1,4 +1,6 @@
-r"""``thermogym identify greybox|montecarlo|anneal|evolution|cmaes``: the coordinator.
+r"""The work of ``thermogym identify global`` (its options: :mod:`thermogym._cli.identify_global`).
+
+``thermogym identify greybox|montecarlo|anneal|evolution|cmaes``: the coordinator.
 
 Fits a registered thermogym model (``--model``) or an external model
 (``--external CONFIG``, a TOML/YAML file read by
@@ -38,7 +40,6 @@ from thermogym._cli.data_run import (
 )
 from thermogym.errors import ConfigError
 from thermogym.identification.coordinator import run_identification
-from thermogym.identification.coordinator_plots import plot_fit
 from thermogym.identification.external import load_external
 from thermogym.identification.problem import FreeParameter, Problem, RatioParameter
 from thermogym.identification.uncertainty import estimate_input_noise
@@ -254,6 +255,9 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     if args.history is not None:
         result.save_history(plan.path("--history"))
     if args.plot is not None:
+        # figures only when asked: matplotlib costs ~0.5 s at start-up
+        from thermogym.identification.coordinator_plots import plot_fit
+
         plot_fit(result, plan.path("--plot"))
     print(result.summary())
     if result.failed:

@@ -1,4 +1,6 @@
-r"""``thermogym identify foptd|n4sid|rls``: linear identification from recordings.
+r"""The work of ``thermogym identify linear`` (its options: :mod:`thermogym._cli.identify_linear`).
+
+``thermogym identify foptd|n4sid|rls``: linear identification from recordings.
 
 Examples
 --------
@@ -55,12 +57,6 @@ from thermogym.identification.linear_fit import (
     exogenous_roles,
     predict_fit,
     signal_arrays,
-)
-from thermogym.identification.linear_plots import (
-    plot_delay_loss,
-    plot_fit,
-    plot_order_cv,
-    plot_singular_values,
 )
 from thermogym.identification.metrics import fit_text, nrmse
 from thermogym.identification.rls import RecursiveFOPTD
@@ -124,6 +120,9 @@ def _warn(fit: Any, recs: list[Any], args: argparse.Namespace, extra: list[Any])
 
 
 def _plot_fits(fit: Any, recs: list[Any], folder: Path, tag: str, x0: str) -> list[Path]:
+    # figures only when asked: matplotlib costs ~0.5 s at start-up
+    from thermogym.identification.linear_plots import plot_fit
+
     model = fit.build_model()
     outs = list(model.output_names)
     paths = []
@@ -227,6 +226,9 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
                     f"tau = {res.tau[j, i]:7.4g} s"
                 )
         if plots:
+            # figures only when asked: matplotlib costs ~0.5 s at start-up
+            from thermogym.identification.linear_plots import plot_delay_loss
+
             figures.append(plot_delay_loss(res, plots / "foptd_delay_search.png"))
     elif method == "rls":
         fit = _run_rls(args, train, vals, inputs, outputs, dist)
@@ -399,6 +401,9 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
         f"{res.seconds:.2f} s"
     )
     if plots:
+        # figures only when asked: matplotlib costs ~0.5 s at start-up
+        from thermogym.identification.linear_plots import plot_order_cv, plot_singular_values
+
         figures.append(
             plot_singular_values(
                 res.decomposition.singular_values, plots / "singular_values.png", chosen=res.order

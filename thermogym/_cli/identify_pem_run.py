@@ -1,4 +1,6 @@
-r"""``thermogym identify arx|armax|oe|bj|sopdt|ssest|auto``: prediction-error identification.
+r"""The work of ``thermogym identify pem`` (its options: :mod:`thermogym._cli.identify_pem`).
+
+``thermogym identify arx|armax|oe|bj|sopdt|ssest|auto``: prediction-error identification.
 
 Examples
 --------

@@ -1,4 +1,6 @@
-"""``thermogym models``: list models, their signals and parameters."""
+"""The work of ``thermogym models`` (its options: :mod:`thermogym._cli.models`).
+
+``thermogym models``: list models, their signals and parameters."""
 
 from __future__ import annotations
 

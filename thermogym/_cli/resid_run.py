@@ -1,4 +1,6 @@
-"""``thermogym resid FIT --data REC``: residual tests of a fitted model.
+"""The work of ``thermogym resid`` (its options: :mod:`thermogym._cli.resid`).
+
+``thermogym resid FIT --data REC``: residual tests of a fitted model.
 
 As MATLAB's ``resid``: the residuals ``y − ŷ`` of the fit on a recording are
 tested for whiteness (Ljung-Box over lags 1..M) and for independence from
@@ -23,7 +25,6 @@ from thermogym._cli.compare_run import load_one
 # resid is looked up in its module when called, so that a replacement there is used (the
 # interruption tests replace it)
 from thermogym.identification import compare
-from thermogym.identification.linear_plots import plot_resid
 
 
 def run(args: argparse.Namespace) -> int:
@@ -53,6 +54,9 @@ def run(args: argparse.Namespace) -> int:
                 ok = "independent" if p >= args.alpha else "CORRELATED with the input"
                 print(f"    × {u}: p = {p:.3g}: {ok}")
         if args.plot:
+            # figures only when asked: matplotlib costs ~0.5 s at start-up
+            from thermogym.identification.linear_plots import plot_resid
+
             plot_resid(tests, plan.path("--plot"), dt=rec.dt)
             print(f"  figure: {args.plot}")
         if args.json:

@@ -1,4 +1,6 @@
-"""``thermogym simulate [MODEL] --inputs FILE --out FILE``: simulate on recorded inputs."""
+"""The work of ``thermogym simulate`` (its options: :mod:`thermogym._cli.simulate`).
+
+``thermogym simulate [MODEL] --inputs FILE --out FILE``: simulate on recorded inputs."""
 
 from __future__ import annotations
 
@@ -10,7 +12,7 @@ import numpy as np
 
 # write_recording and plot_recordings are looked up in their modules when called, so that a
 # replacement there is used (the interruption tests replace them)
-from thermogym import plotting, recording
+from thermogym import recording
 from thermogym._cli.common import plan_outputs
 from thermogym._cli.data_run import load_recordings
 from thermogym.errors import ConfigError
@@ -99,6 +101,9 @@ def run(args: argparse.Namespace) -> int:
     with plan:
         recording.write_recording(out, plan.path("--out"))
         if args.plot:
+            # figures only when asked: matplotlib costs ~0.5 s at start-up
+            from thermogym import plotting
+
             names = [n for n in model.output_names if n in rec]
             plotting.plot_recordings(
                 [rec],

@@ -1,4 +1,6 @@
-"""``thermogym virtual-sensor --fit fit.json DATA --out estimates.csv``: estimate hidden signals.
+"""The work of ``thermogym virtual-sensor`` (its options: :mod:`thermogym._cli.virtual_sensor`).
+
+``thermogym virtual-sensor --fit fit.json DATA --out estimates.csv``: estimate hidden signals.
 
 Runs the Kalman virtual sensor of :mod:`thermogym.estimation` on a
 recording: the identified state-space model of ``--fit`` (``ss``, e.g. from
@@ -27,7 +29,6 @@ from thermogym._cli.data_run import load_recordings
 from thermogym.errors import ConfigError
 from thermogym.estimation import consistency, normalized_error_squared
 from thermogym.firmware.export import sensor_from_fit
-from thermogym.firmware.plots import plot_virtual_sensor
 from thermogym.identification.metrics import fit_text, nrmse, rmse
 from thermogym.recording import Recording
 
@@ -173,6 +174,9 @@ def _estimate(args: argparse.Namespace, plan: Any) -> int:
                 f"{'consistent' if rep.consistent else 'not consistent'}"
             )
     if args.plot:
+        # figures only when asked: matplotlib costs ~0.5 s at start-up
+        from thermogym.firmware.plots import plot_virtual_sensor
+
         plot_virtual_sensor(
             rec.time,
             {n: est[n] for n in est.names},
