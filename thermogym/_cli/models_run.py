@@ -1,6 +1,7 @@
 """The work of ``thermogym models`` (its options: :mod:`thermogym._cli.models`).
 
-``thermogym models``: list models, their signals and parameters."""
+``thermogym models``: list models, their signals and parameters.
+"""
 
 from __future__ import annotations
 

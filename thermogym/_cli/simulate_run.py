@@ -1,6 +1,7 @@
 """The work of ``thermogym simulate`` (its options: :mod:`thermogym._cli.simulate`).
 
-``thermogym simulate [MODEL] --inputs FILE --out FILE``: simulate on recorded inputs."""
+``thermogym simulate [MODEL] --inputs FILE --out FILE``: simulate on recorded inputs.
+"""
 
 from __future__ import annotations
 
