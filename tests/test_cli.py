@@ -96,3 +96,16 @@ def test_demo_quick_runs_and_writes_a_report(tmp_path):
     for line in report.splitlines():
         if line.startswith("!["):
             assert (tmp_path / line.split("](")[1].rstrip(")")).exists()
+
+
+def test_option_modules_write_out_the_library_values_they_show():
+    # the options modules load without the library; the values they show must be its values
+    from thermogym import demo
+    from thermogym._cli import demo as demo_options
+    from thermogym._cli import identify_linear
+    from thermogym.identification.advice import DEFAULT_TOLERANCE
+    from thermogym.identification.linear_fit import X0_CHOICES
+
+    assert list(demo_options.STAGE_KEYS) == demo.stage_keys()
+    assert identify_linear.X0_CHOICES == X0_CHOICES
+    assert identify_linear.DEFAULT_TOLERANCE == DEFAULT_TOLERANCE
