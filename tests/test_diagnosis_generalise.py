@@ -271,3 +271,19 @@ def test_a_named_course_beat_a_course_added_to_the_reading(seed):
             # refused there: its baseline fitted as well, and it is not the first kept effect
             assert not h["baseline"]["course"]["physics_favoured"]
             assert (h["effect"], h["form"], h["target"]) not in first
+
+
+def test_parameter_error_verdict_does_not_claim_the_whole_answer_when_a_residual_remains():
+    # the detection runs on the re-calibrated model: when its residual is still significant
+    # and no hypothesis explains it, "no physics is missing" would be a claim the data refute
+    from thermogym.identification.diagnosis.report import DiagnosisReport
+
+    rep = DiagnosisReport("tank", {}, ["T"], ["P"], {"T": "°C"}, True, 0.01, {}, {}, None, {})  # type: ignore[arg-type]
+    rep.named_effects = ["parameter_error"]
+    rep.parameters = {"moved": ["K_coil"]}
+    rep.located = {"signals": [{"signal": "T"}]}
+    rep.detection = {"residual_structure": False}
+    assert "explains the mismatch; no physics is missing" in rep.verdict
+    rep.detection = {"residual_structure": True}
+    assert "no physics is missing" not in rep.verdict
+    assert "explains part of the mismatch" in rep.verdict and "mostly T" in rep.verdict

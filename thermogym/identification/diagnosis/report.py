@@ -199,6 +199,17 @@ class DiagnosisReport:
             )
         if named == ["parameter_error"]:
             moved = self.parameters.get("moved", [])
+            if self.detection.get("residual_structure"):
+                # the detection ran on the re-calibrated model: its residual is still
+                # significant and material, so re-calibration is not the whole answer
+                return lead + (
+                    "Parameter error: re-calibrating the model's own parameters "
+                    f"({', '.join(moved) or 'within their intervals'}) explains part of the "
+                    f"mismatch, but the re-calibrated model still misses the recordings "
+                    f"significantly (mostly {where or 'on every output'}) and no hypothesis "
+                    "explains the rest on held-out data: coloured noise or physics outside the "
+                    "catalogue."
+                )
             return lead + (
                 "Parameter error: re-calibrating the model's own parameters "
                 f"({', '.join(moved) or 'within their intervals'}) explains the mismatch; no "
