@@ -100,10 +100,11 @@ def tp_room(period: float, max_step: float) -> int:
     The wax-temperature tracker is fed every integration sub-step of the period (steps of
     at most ``max_step``; the heater's on and off parts each a whole number of them, so at
     most ``ceil(period / max_step) + 1`` sub-steps), and one sample confirms at most one
-    turning point. With a hysteresis a period with one on and one off phase confirms at
-    most two or three in practice (a valley while heating, a peak while cooling), but with
-    hysteresis 0 every sample of a plateau confirms one: the bound holds for any
-    trajectory. One place more for the first sample of an episode.
+    turning point. A period with one heating and one cooling phase confirms two with a
+    hysteresis (a valley while it heats, a peak while it cools; the most the tests see),
+    but nothing bounds a trajectory's turns in general, and with hysteresis 0 every
+    repeated value confirms one: the sub-step count is the bound that always holds. One
+    place more for the first sample of an episode.
 
     Examples
     --------

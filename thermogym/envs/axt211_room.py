@@ -73,9 +73,11 @@ KPIs
 ``discomfort_Kh``, ``heat_delivered_kWh``, ``actuator_energy_Wh``,
 ``switch_cycles``, ``stroke_travel_mm``, ``stroke_reversals``,
 ``wax_thermal_cycles``, ``wax_damage``, ``time_above_limit_h`` (wax above
-``wax_limit_C``), ``episode_h``. Zone temperature and occupancy are sampled at
-the end of every period; energies are integrated by the trapezoidal rule on
-intervals of at most 10 s.
+``wax_limit_C``), ``episode_h``. The wax temperature's turning points are
+taken after every RK4 sub-step (with ``plant="rig"``: every sub-step of the
+rig), so that the heating and cooling within one PWM period count; zone
+temperature, occupancy and the stroke are sampled at the end of every period;
+energies are integrated by the trapezoidal rule on intervals of at most 10 s.
 
 Fast path
 ---------
@@ -609,7 +611,7 @@ class _RoomRigEngine(_RoomEngine):
         iw, hT = self._iw, self.cfgv[_HT]
         for b in np.flatnonzero(ok):
             # the wax temperature's turns within the period, then its value at the end
-            ntp = tp_push_all(self.acc, b, _A_TPT, turns.values[b], turns.count(b), hT,
+            ntp = tp_push_all(self.acc, b, _A_TPT, turns.values[b], turns.count(int(b)), hT,
                               self.tpbuf, self.ctr[b, C_NTP])  # fmt: skip
             self.ctr[b, C_NTP] = tp_push_all(self.acc, b, _A_TPT, xr[b, iw : iw + 1], 1, hT,
                                              self.tpbuf, ntp)  # fmt: skip

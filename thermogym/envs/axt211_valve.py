@@ -73,8 +73,11 @@ KPIs (``info["kpis"]`` at the episode end; :mod:`thermogym.envs.kpis`)
 ``wax_thermal_cycles`` and ``wax_damage`` (rainflow on T_P with
 ``cycle_hysteresis_K``), ``time_above_limit_h`` (T_P above
 ``wax_limit_C``), ``stroke_rmse_mm``, ``stroke_iae_mm_s``, ``episode_h``.
-Signals are sampled at the end of every control period; the energy is
-integrated by the trapezoidal rule on intervals of at most 10 s.
+The wax temperature's turning points are taken after every RK4 sub-step
+(with ``plant="rig"``: every sub-step of the rig), so that the heating and
+cooling within one PWM period count as a thermal cycle; the other signals are
+sampled at the end of every control period (the stroke reversals too). The
+energy is integrated by the trapezoidal rule on intervals of at most 10 s.
 
 Version History
 ---------------
@@ -885,7 +888,7 @@ class _ValveRigEngine(_ValveEngine):
         hT = self.cfgv[_HT]
         for b in np.flatnonzero(ok):
             # the wax temperature's turns within the period, then its value at the end
-            n = turns.count(b)
+            n = turns.count(int(b))
             ntp = tp_push_all(self.acc, b, _A_TPT, turns.values[b], n, hT, self.tpbuf,
                               self.ctr[b, C_NTP])  # fmt: skip
             self.ctr[b, C_NTP] = tp_push_all(self.acc, b, _A_TPT, xr[b, iw : iw + 1], 1, hT,

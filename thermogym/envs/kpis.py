@@ -4,7 +4,11 @@ Every environment accumulates these KPIs while it runs and returns them at the
 end of an episode in ``info["kpis"]``; the controller benchmark harness
 computes the same numbers from recorded trajectories with the functions here.
 The environments use the same streaming primitives (:func:`tp_update`) so that
-both give the same values on the same trajectory.
+both give the same values on the same trajectory. The AXT211 environments feed
+the wax temperature after every integration sub-step, not only at the end of a
+control period: their wax cycles equal :func:`wax_thermal_cycles` of that dense
+trajectory (a PWM period long against the wax's time constant heats and cools
+it within the period, which end-of-period samples do not see).
 
 Units are in the names (DESIGN.md, "KPIs for controller comparison"):
 
