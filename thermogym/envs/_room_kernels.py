@@ -115,13 +115,13 @@ _NQ = rd.LANE_PLAIN  # parameter rows in a block (the plain flag goes to _R_PLAI
 (
     _R_TP, _R_TG, _R_XP, _R_XV, _R_TR, _R_TA, _R_TS, _R_NON, _R_NTOT, _R_HON, _R_HOFF,
     _R_MQON, _R_MQOFF, _R_CNT, _R_E, _R_QON, _R_QOFF, _R_P0, _R_Q0, _R_KU2, _R_TOUT,
-    _R_QINT, _R_TSUP, _R_BASE, _R_PW, _R_EXPV, _R_PWV, _R_H, _R_V2, _R_HT, _R_NTPS,
-) = range(_NQ, _NQ + 31)  # fmt: skip
-_R_K = _NQ + 31  # 6 rows: derivatives of the last stage (all states but x_V)
+    _R_QINT, _R_TSUP, _R_BASE, _R_PW, _R_EXPV, _R_PWV, _R_H, _R_V2, _R_NTPS,
+) = range(_NQ, _NQ + 30)  # fmt: skip
+_R_K = _NQ + 30  # 6 rows: derivatives of the last stage (all states but x_V)
 _R_S = _R_K + 6  # 6 rows: their weighted RK4 sum so far
-_R_TRK = _R_S + 6  # 4 rows: the wax-temperature tracker (as in axt211_valve's lockstep)
-_NSLOT = 4  # turning points a lane keeps per period (physically at most 2 with hysteresis)
-_R_TPS = _R_TRK + 4  # _NSLOT rows: turning points confirmed in the period
+_R_TRK = _R_S + 6  # 2 rows: the wax-temperature tracker (as in axt211_valve's lockstep)
+_NSLOT = 2  # turning points a lane keeps per period (a valley and a peak, with hysteresis)
+_R_TPS = _R_TRK + 2  # _NSLOT rows: turning points confirmed in the period
 _NROW = _R_TPS + _NSLOT
 _R_PLAIN = _NROW  # 1 where the plant has no actuator effect (the lockstep applies)
 _NROWB = _NROW + 1  # rows of a block array: the engine keeps one per block of plants, so the
@@ -318,7 +318,7 @@ def _powers(wb, W, kind):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, inline="always")
-def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
+def _stage(wb, W, i, sf, j, kind, hT):  # pragma: no cover - numba
     # stage j (1-4, a compile-time constant) of RK4 sub-step sf of lane i: the model's step
     # (room_dynamics.step) cut into stages by the shared integrator's stage functions, with
     # the power laws from _powers and the sub-step's step size and heater input from _prepare
@@ -363,7 +363,7 @@ def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
     )  # fmt: skip
     y3 = xVn if run else xV
     if last:  # (a compile-time constant) the wax temperature after the sub-step
-        _lane_tracker(wb, W, i, y[0], run)
+        _lane_tracker(wb, W, i, y[0], run, hT)
     wb[_R_TP * W + i] = y[0]
     wb[_R_TG * W + i] = y[1]
     wb[_R_XP * W + i] = y[2]
@@ -377,20 +377,18 @@ def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, inline="always")
-def _lane_tracker(wb, W, i, v, run):  # pragma: no cover - numba
-    # lane i's wax-temperature tracker takes sample v (if run); a confirmed turning point
-    # goes to the next of its _NSLOT rows (the count goes on past them: overflow)
-    st = wb[_R_TRK * W + i]
-    ex = wb[(_R_TRK + 1) * W + i]
-    dr = wb[(_R_TRK + 2) * W + i]
-    cf = wb[(_R_TRK + 3) * W + i]
+def _lane_tracker(wb, W, i, v, run, hT):  # pragma: no cover - numba
+    # lane i's wax-temperature tracker (started: the first sample of the episode is in) takes
+    # sample v (if run); a confirmed turning point goes to the next of its _NSLOT rows (the
+    # count goes on past them: overflow). Its count of confirmed points is the plant's plus
+    # the lane's count after the period
+    ex = wb[_R_TRK * W + i]
+    dr = wb[(_R_TRK + 1) * W + i]
     n = wb[_R_NTPS * W + i]
-    st1, ex1, dr1, cf1, tp, hit = tp_select(st, ex, dr, cf, v, wb[_R_HT * W + i])
+    _, ex1, dr1, _, tp, hit = tp_select(1.0, ex, dr, 0.0, v, hT)
     hit = hit & run
-    wb[_R_TRK * W + i] = st1 if run else st
-    wb[(_R_TRK + 1) * W + i] = ex1 if run else ex
-    wb[(_R_TRK + 2) * W + i] = dr1 if run else dr
-    wb[(_R_TRK + 3) * W + i] = cf1 if run else cf
+    wb[_R_TRK * W + i] = ex1 if run else ex
+    wb[(_R_TRK + 1) * W + i] = dr1 if run else dr
     for k in range(_NSLOT):
         old = wb[(_R_TPS + k) * W + i]
         wb[(_R_TPS + k) * W + i] = tp if (hit & (n == k)) else old
@@ -433,16 +431,16 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
 
     def stage_loop(j):  # type: ignore[no-untyped-def]
         @nb.njit(cache=True, error_model="numpy", _nrt=False)
-        def stage(wb, sf):  # pragma: no cover - numba
+        def stage(wb, sf, hT):  # pragma: no cover - numba
             for i in range(W):
-                _stage(wb, W, i, sf, j, kind)
+                _stage(wb, W, i, sf, j, kind, hT)
 
         return stage
 
     st1, st2, st3, st4 = stage_loop(1), stage_loop(2), stage_loop(3), stage_loop(4)
 
     @nb.njit(cache=True, error_model="numpy", _nrt=False)
-    def lockstep(wb, nmax):  # pragma: no cover - numba
+    def lockstep(wb, nmax, hT):  # pragma: no cover - numba
         # nmax RK4 sub-steps of the W lanes of block wb, then the last trapezoidal points
         for i in range(W):
             _stage_base(
@@ -453,13 +451,13 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
             sf = float(s)
             _prepare(wb, W, sf)
             _powers(wb, W, kind)
-            st1(wb, sf)
+            st1(wb, sf, hT)
             _powers(wb, W, kind)
-            st2(wb, sf)
+            st2(wb, sf, hT)
             _powers(wb, W, kind)
-            st3(wb, sf)
+            st3(wb, sf, hT)
             _powers(wb, W, kind)
-            st4(wb, sf)
+            st4(wb, sf, hT)
         _powers(wb, W, 0)
         sf = float(nmax)
         for i in range(W):
@@ -476,7 +474,7 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
     return lockstep, (st1, st2, st3, st4)
 
 
-_BW = 32  # lanes of a full block (87 rows x 32 lanes x 8 B = 22 KiB: L1 cache)
+_BW = 32  # lanes of a full block (81 rows x 32 lanes x 8 B = 20 KiB: L1 cache)
 
 
 @nb.njit(cache=True)
@@ -533,9 +531,13 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                     dd[j] = d
                     xv0[j] = x[b, 3]
                     Tout, Qint = _room_inputs(b, acc)
-                    # the scalar kernel: actuator effects, the lanes of a partial block, and every
-                    # plant of the variant without lockstep
-                    if not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0:
+                    # the scalar kernel: actuator effects, the lanes of a partial block, every
+                    # plant of the variant without lockstep (and a wax-temperature tracker
+                    # without its first sample, which the lanes' tracker assumes)
+                    if (
+                        not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0
+                        or acc[b, _A_TPT] == 0.0
+                    ):  # fmt: skip
                         EE[j], QQ[j], acc[b, _A_QLAST] = _room_dyn(
                             x[b], d, dist[b, 0], Tout, Qint, p[b], T, hmax, kind,
                             acc[b, _A_QLAST], b, acc, tpbuf, ctr, hT,
@@ -573,14 +575,13 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
             for k in range(6):
                 wb[(_R_K + k) * W + i] = 0.0
                 wb[(_R_S + k) * W + i] = 0.0
-            wb[_R_HT * W + i] = hT
             wb[_R_NTPS * W + i] = 0.0
-            for k in range(4):
-                wb[(_R_TRK + k) * W + i] = acc[b, _A_TPT + k]
+            wb[_R_TRK * W + i] = acc[b, _A_TPT + 1]  # extreme
+            wb[(_R_TRK + 1) * W + i] = acc[b, _A_TPT + 2]  # direction
         if not lockstep:  # (a compile-time constant: the lockstep code is pruned)
             return status
         if nmax > 0:
-            ls(wb, nmax)
+            ls(wb, nmax, hT)
             for i in range(W):
                 ntot = wb[_R_NTOT * W + i]
                 if ntot > 0.0:
@@ -599,8 +600,9 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                     for k in range(n):
                         tpbuf[b, ntp + k] = wb[(_R_TPS + k) * W + i]
                     ctr[b, 2] = ntp + n
-                    for k in range(4):
-                        acc[b, _A_TPT + k] = wb[(_R_TRK + k) * W + i]
+                    acc[b, _A_TPT + 1] = wb[_R_TRK * W + i]
+                    acc[b, _A_TPT + 2] = wb[(_R_TRK + 1) * W + i]
+                    acc[b, _A_TPT + 3] += n  # each point of the lane a confirmed turn
                     for k in range(7):
                         x[b, k] = wb[(_R_TP + k) * W + i]
                     non = wb[_R_NON * W + i]

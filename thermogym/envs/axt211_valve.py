@@ -384,13 +384,13 @@ def _valve_post(
 # period. A period that confirms more (hysteresis 0, or a trajectory that turns often) is
 # stepped again from its start by the scalar kernel (the lockstep wrote nothing back).
 
-_BW = 64  # lanes of a full block: its 45 rows x 64 lanes x 8 B = 23 KiB stay in L1 cache
+_BW = 64  # lanes of a full block: its 40 rows x 64 lanes x 8 B = 20 KiB stay in L1 cache
 _NQ = ax.N_COEF  # lane-table rows in a block (all but the plain flag)
-_NSLOT = 4  # turning points a lane keeps per period (physically at most 2 with hysteresis)
+_NSLOT = 2  # turning points a lane keeps per period (a valley and a peak, with hysteresis)
 (_R_TP, _R_TG, _R_XP, _R_XV, _R_NON, _R_NTOT, _R_HON, _R_HOFF, _R_MQ, _R_CNT, _R_E, _R_P0,
- _R_KU2, _R_TU, _R_HT, _R_NTPS) = range(_NQ, _NQ + 16)  # fmt: skip
-_R_TRK = _NQ + 16  # 4 rows: the wax-temperature tracker (started, extreme, direction, count)
-_R_TPS = _R_TRK + 4  # _NSLOT rows: turning points confirmed in the period
+ _R_KU2, _R_TU, _R_NTPS) = range(_NQ, _NQ + 15)  # fmt: skip
+_R_TRK = _NQ + 15  # 2 rows: the wax-temperature tracker's extreme and direction
+_R_TPS = _R_TRK + 2  # _NSLOT rows: turning points confirmed in the period
 _R_PLAIN = _R_TPS + _NSLOT  # 1 where the plant has no physical effect (the lockstep applies)
 _NROWB = _R_PLAIN + 1  # rows of a block array: the engine keeps one per block of plants, so
 # the parameter rows (written when a parameter set is installed) are not copied per step
@@ -412,20 +412,18 @@ def _quad_point(wb, W, i, sf, non, hon, ku2, R):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, inline="always")
-def _lane_tracker(wb, W, i, v, run):  # pragma: no cover - numba
-    # lane i's wax-temperature tracker takes sample v (if run); a confirmed turning point
-    # goes to the next of its _NSLOT rows (the count goes on past them: overflow)
-    st = wb[_R_TRK * W + i]
-    ex = wb[(_R_TRK + 1) * W + i]
-    dr = wb[(_R_TRK + 2) * W + i]
-    cf = wb[(_R_TRK + 3) * W + i]
+def _lane_tracker(wb, W, i, v, run, hT):  # pragma: no cover - numba
+    # lane i's wax-temperature tracker (started: the first sample of the episode is in) takes
+    # sample v (if run); a confirmed turning point goes to the next of its _NSLOT rows (the
+    # count goes on past them: overflow). Its count of confirmed points is the plant's plus
+    # the lane's count after the period
+    ex = wb[_R_TRK * W + i]
+    dr = wb[(_R_TRK + 1) * W + i]
     n = wb[_R_NTPS * W + i]
-    st1, ex1, dr1, cf1, tp, hit = tp_select(st, ex, dr, cf, v, wb[_R_HT * W + i])
+    _, ex1, dr1, _, tp, hit = tp_select(1.0, ex, dr, 0.0, v, hT)
     hit = hit & run
-    wb[_R_TRK * W + i] = st1 if run else st
-    wb[(_R_TRK + 1) * W + i] = ex1 if run else ex
-    wb[(_R_TRK + 2) * W + i] = dr1 if run else dr
-    wb[(_R_TRK + 3) * W + i] = cf1 if run else cf
+    wb[_R_TRK * W + i] = ex1 if run else ex
+    wb[(_R_TRK + 1) * W + i] = dr1 if run else dr
     for k in range(_NSLOT):
         old = wb[(_R_TPS + k) * W + i]
         wb[(_R_TPS + k) * W + i] = tp if (hit & (n == k)) else old
@@ -433,7 +431,7 @@ def _lane_tracker(wb, W, i, v, run):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, inline="always")
-def _lockstep(wb, W, nmax):  # pragma: no cover - numba
+def _lockstep(wb, W, nmax, hT):  # pragma: no cover - numba
     # nmax RK4 sub-steps of the W lanes of block wb, then the last trapezoidal points
     for s in range(nmax):
         sf = float(s)
@@ -456,7 +454,7 @@ def _lockstep(wb, W, nmax):  # pragma: no cover - numba
             wb[_R_TG * W + i] = TGn if run else TG
             wb[_R_XP * W + i] = xPn if run else xP
             wb[_R_XV * W + i] = xVn if run else xV
-            _lane_tracker(wb, W, i, TPn, run)
+            _lane_tracker(wb, W, i, TPn, run, hT)
     sf = float(nmax)
     for i in range(W):
         R = ax.resistance(wb[_R_TP * W + i], ax.load_coefficients(wb, 0, W, i))
@@ -464,8 +462,8 @@ def _lockstep(wb, W, nmax):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, error_model="numpy")
-def _lockstep_bw(wb, nmax):  # pragma: no cover - numba
-    _lockstep(wb, _BW, nmax)
+def _lockstep_bw(wb, nmax, hT):  # pragma: no cover - numba
+    _lockstep(wb, _BW, nmax, hT)
 
 
 class _StepKernels(NamedTuple):
@@ -510,9 +508,13 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
                     ok[j] = True
                     dd[j] = d
                     xv0[j] = x[b, 3]
-                    # the scalar kernel: physical effects, the lanes of a partial block, and every
-                    # plant of the variant without lockstep
-                    if not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0:
+                    # the scalar kernel: physical effects, the lanes of a partial block, every
+                    # plant of the variant without lockstep (and a wax-temperature tracker
+                    # without its first sample, which the lanes' tracker assumes)
+                    if (
+                        not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0
+                        or acc[b, _A_TPT] == 0.0
+                    ):  # fmt: skip
                         EE[j] = _dyn_scalar(
                             x[b], d, dist[b, 0], dist[b, 1], p[b], T, hmax, b, acc, tpbuf, ctr,
                             hT,
@@ -539,14 +541,13 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
             wb[_R_P0 * W + i] = 0.0
             wb[_R_KU2 * W + i] = dist[b, 0] * dist[b, 0]
             wb[_R_TU * W + i] = dist[b, 1]
-            wb[_R_HT * W + i] = hT
             wb[_R_NTPS * W + i] = 0.0
-            for k in range(4):
-                wb[(_R_TRK + k) * W + i] = acc[b, _A_TPT + k]
+            wb[_R_TRK * W + i] = acc[b, _A_TPT + 1]  # extreme
+            wb[(_R_TRK + 1) * W + i] = acc[b, _A_TPT + 2]  # direction
         if not lockstep:  # (a compile-time constant: the lockstep code is pruned)
             return status
         if nmax > 0:
-            ls(wb, nmax)
+            ls(wb, nmax, hT)
             for i in range(W):
                 if wb[_R_NTOT * W + i] > 0.0:
                     b = b0 + i
@@ -568,8 +569,9 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
                     for k in range(n):
                         tpbuf[b, ntp + k] = wb[(_R_TPS + k) * W + i]
                     ctr[b, 2] = ntp + n
-                    for k in range(4):
-                        acc[b, _A_TPT + k] = wb[(_R_TRK + k) * W + i]
+                    acc[b, _A_TPT + 1] = wb[_R_TRK * W + i]
+                    acc[b, _A_TPT + 2] = wb[(_R_TRK + 1) * W + i]
+                    acc[b, _A_TPT + 3] += n  # each point of the lane a confirmed turn
         return status
 
     @nb.njit(cache=True)

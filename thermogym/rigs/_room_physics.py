@@ -13,6 +13,7 @@ import math
 
 import numba as nb
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.rigs import _axt211_physics as ax
 
 N_PIPE = 8
@@ -282,3 +283,8 @@ def simulate_batch(x0, u, t0, dt, pa, q, swa, swr, max_step, kind, y, xs):  # pr
                 uk = u[b, k]
                 advance(x, uk[0], uk[1], uk[2], uk[3], uk[4], t, dt, pa[b], q[b], swa, swr,
                         max_step, kind)  # fmt: skip
+
+
+# the room's kernels contain the actuator's (ax.substep, ax.note_turn): their cache follows
+# _axt211_physics.py too
+module_kernels_depend_on(globals())
