@@ -245,6 +245,69 @@ def test_lockstep_blocks_equal_the_scalar_kernel_of_single_envs(env_id, module):
             assert vr[i] == r
 
 
+LONG = {
+    "thermogym/AXT211Valve-v0": {"control_period": 120.0, "episode_s": 1200.0, "setpoint": 2.0},
+    "thermogym/AXT211Room-v0": {
+        "control_period": 120.0, "episode_days": 1200.0 / 86400.0, "start_day": 3,
+        "start_hour": 6.5,
+    },
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("h", [2.0, 0.0])
+@pytest.mark.parametrize(
+    ("env_id", "module"),
+    [
+        ("thermogym/AXT211Valve-v0", "thermogym.envs.axt211_valve"),
+        ("thermogym/AXT211Room-v0", "thermogym.envs.axt211_room"),
+    ],
+)
+def test_lockstep_blocks_keep_the_turning_points_of_single_envs(env_id, module, h):
+    # the wax tracker takes every sub-step (issue 14): full lockstep blocks (the lanes'
+    # tracker), a partial block and single envs (the scalar kernel) agree bit for bit on the
+    # turning points and every KPI over 120 s PWM periods. The odd plants get a wax of
+    # enormous heat capacity, whose temperature repeats exactly from sub-step to sub-step:
+    # with hysteresis 0 each sub-step confirms a turning point, more than a lane keeps, and
+    # the period is stepped again by the scalar kernel (and the buffers grow)
+    import importlib
+
+    n = importlib.import_module(module)._BW + 2
+    kw = {**LONG[env_id], "cycle_hysteresis_K": h}
+    venv = gym.make_vec(env_id, n, vectorization_mode="vector_entry_point", **kw)
+    singles = [gym.make(env_id, **kw) for _ in range(n)]
+    venv.reset(seed=11)
+    for i, e in enumerate(singles):
+        e.reset(seed=11 + i)
+    ve = venv.unwrapped._e
+    th = ve.theta[0].copy()
+    th[ve.model.param_index("C_P")] = 1e30
+    odd = list(range(1, n, 2))
+    ve.set_theta(odd, np.tile(th, (len(odd), 1)))
+    for i in odd:
+        singles[i].unwrapped._e.set_theta([0], th[None])
+    rng = np.random.default_rng(2)
+    steps = 8
+    for _ in range(steps):
+        acts = rng.uniform(-1, 1, (n, 1)).astype(np.float32)
+        vo, vr, _, _, _ = venv.step(acts)
+        for i, e in enumerate(singles):
+            o, r, _, _, _ = e.step(acts[i])
+            np.testing.assert_array_equal(vo[i], o)
+            assert vr[i] == r
+    for i, e in enumerate(singles):
+        se = e.unwrapped._e
+        m = int(ve.ctr[i, 2])
+        assert m == se.ctr[0, 2]
+        np.testing.assert_array_equal(ve.tpbuf[i, :m], se.tpbuf[0, :m])
+        np.testing.assert_array_equal(ve.acc[i], se.acc[0])
+        assert ve.kpis(i) == se.kpis(0)
+    points = ve.ctr[:, 2]
+    if h == 0.0:  # every sub-step of the frozen waxes confirmed one: 120 per period
+        assert (points[odd] >= steps * 120).all()
+    assert (points[0::2] <= 1 + 2 * steps).all()  # hysteresis or not, at most two a period
+    assert points[0::2].max() > steps  # and in-period turns were counted
+
+
 def test_vector_env_parallel_kernel_gives_the_same_results():
     kw = dict(SHORT["thermogym/AXT211Room-v0"])
     runs = []
@@ -321,6 +384,68 @@ def test_valve_duty_is_pwm_within_the_period():
     sim = AXT211().simulate(np.r_[u1, u1[-1:]], 1.0)
     np.testing.assert_allclose(h["x_V"], sim.output("x_V")[0, ::10], atol=1e-10)
     assert k["switch_cycles"] == 60
+
+
+def _wax_kpis(T_P: np.ndarray, h: float = 2.0) -> dict[str, float]:
+    # the wax KPIs of a trajectory: rainflow on its turning points (the test's truth)
+    return kpis.wax_cycle_kpis(kpis.rainflow_cycles(T_P, h))
+
+
+def _assert_wax_kpis(k: dict[str, float], truth: dict[str, float]) -> None:
+    for name, v in truth.items():
+        if "cycles" in name:
+            assert k[name] == v, name
+        else:
+            assert k[name] == pytest.approx(v, rel=1e-9, abs=1e-15), name
+
+
+def test_valve_counts_the_wax_cycles_within_long_pwm_periods():
+    # issue 14: a 120 s PWM at duty 0.5 heats and cools the wax in every period; the
+    # tracker takes every RK4 sub-step, so the env counts the cycles rainflow finds on
+    # the densely sampled (1 s, the sub-steps) trajectory of the same model: about one a
+    # period. Sampled once a period (the tracker before), T_P is the same every period
+    # and no cycle is counted.
+    from thermogym.models import AXT211
+
+    n = 30
+    _env, h, _acts, k = _history(
+        "thermogym/AXT211Valve-v0", lambda o: np.array([0.0], np.float32),
+        control_period=120.0, episode_s=120.0 * n, setpoint=2.0,
+    )  # fmt: skip
+    u = np.column_stack(
+        [np.tile([1.0] * 60 + [0.0] * 60, n), np.full(120 * n, 24.0), np.full(120 * n, 25.0)]
+    )
+    dense = AXT211().simulate(np.r_[u, u[-1:]], 1.0).output("T_P")[0]
+    np.testing.assert_allclose(h["T_P"], dense[::120], rtol=0, atol=1e-9)
+    truth = _wax_kpis(dense)
+    _assert_wax_kpis(k, truth)
+    assert n - 2 <= k["wax_thermal_cycles"] <= n
+    assert kpis.wax_thermal_cycles(h["T_P"], 2.0) <= 1.0  # what the end samples give
+
+
+def test_room_counts_the_wax_cycles_within_long_pwm_periods():
+    from thermogym.models.room import RoomModel
+
+    n = 30
+    env = gym.make(
+        "thermogym/AXT211Room-v0", record=True, sensor_noise=False, control_period=120.0,
+        episode_days=n * 120.0 / 86400.0, start_day=2, start_hour=8.0,
+    )  # fmt: skip
+    env.reset(seed=0)
+    x0 = env.unwrapped._e.x[0].copy()
+    while True:
+        _o, _r, te, tr, info = env.step(np.array([0.0], np.float32))  # duty 0.5
+        if te or tr:
+            break
+    h, k = env.unwrapped.history(), info["kpis"]
+    u = np.column_stack([np.ones(n + 1), np.full(n + 1, 24.0), h["T_out"], h["Q_int"]])
+    ud = np.repeat(u[:-1], 120, axis=0)
+    ud[:, 0] = np.tile([1.0] * 60 + [0.0] * 60, n)
+    dense = RoomModel().simulate(np.r_[ud, u[-1:]], 1.0, x0=x0).output("T_P")[0]
+    np.testing.assert_allclose(h["T_P"], dense[::120], rtol=0, atol=1e-9)
+    _assert_wax_kpis(k, _wax_kpis(dense))
+    assert n - 2 <= k["wax_thermal_cycles"] <= n
+    assert kpis.wax_thermal_cycles(h["T_P"], 2.0) <= 1.0
 
 
 def test_room_runs_the_room_model_and_its_kpis_match():

@@ -131,3 +131,64 @@ def test_room_rig_heats_with_the_rigs_radiator():
     x_max = float(np.asarray(specimen_spread(np.random.default_rng(0), n=1)["x_max"]).ravel()[0])
     assert abs(x_max - 4.5) < 0.2
     assert env.unwrapped.true_outputs()["x_V"] == pytest.approx(x_max, abs=1e-6)
+
+
+class _SubSteps:
+    """Stands in for a rig plant's ``step``: the real step, and the same again sub-step by
+    sub-step (the rig's own step size), keeping one state column after every sub-step."""
+
+    def __init__(self, plant, col: int) -> None:
+        self.step, self.max_step, self.col = plant.step, plant.max_step, col
+        self.series: list[float] = []
+
+    def __call__(self, x, u, dt, spec, *t, turns=None):
+        out = self.step(x, u, dt, spec, *t, turns=turns)
+        d = float(np.asarray(dt).reshape(-1)[0])  # one plant
+        if d > 0.0:
+            n = max(1, int(np.ceil(d / self.max_step - 1e-9)))
+            h = d / n
+            t0 = float(np.asarray(t[0]).reshape(-1)[0]) if t else 0.0
+            xs = x
+            for j in range(n):
+                xs = self.step(xs, u, h, spec, *((t0 + j * h,) if t else ()))
+                self.series.append(float(xs[0, self.col]))
+            np.testing.assert_array_equal(xs, out)  # the same sub-steps
+        return out
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kw"),
+    [
+        (VALVE, {"setpoint": 2.0}),
+        (ROOM, {"start_day": 10, "start_hour": 8.0}),
+    ],
+)
+def test_rig_envs_count_the_wax_cycles_of_every_rig_sub_step(env_id, kw):
+    # issue 14: with a 120 s PWM at duty 0.5 the tracker gets the turns the rig notes over
+    # its sub-steps and the period's end value: the env's wax KPIs are those of rainflow on
+    # the cartridge temperature after every sub-step of the rig's own integration
+    from thermogym.envs import kpis
+
+    n = 20
+    T = 120.0
+    span = {"episode_s": n * T} if env_id == VALVE else {"episode_days": n * T / 86400.0}
+    env = gym.make(env_id, plant="rig", control_period=T, sensor_noise=False, **span, **kw)
+    env.reset(seed=3)
+    e = env.unwrapped._e
+    sub = _SubSteps(e.tp, e._iw)
+    sub.series.append(float(e.xr[0, e._iw]))
+    e.tp.step = sub
+    end = [sub.series[0]]
+    while True:
+        _o, _r, te, tr, info = env.step(np.array([0.0], np.float32))  # duty 0.5
+        end.append(float(e.xr[0, e._iw]))
+        if te or tr:
+            break
+    k = info["kpis"]
+    dense = np.array(sub.series)
+    assert dense.size == 1 + n * int(T / e.tp.max_step)
+    truth = kpis.wax_cycle_kpis(kpis.rainflow_cycles(dense, 2.0))
+    for name, v in truth.items():
+        assert k[name] == pytest.approx(v, rel=1e-12, abs=1e-18), name
+    assert k["wax_thermal_cycles"] >= n - 2
+    assert kpis.wax_thermal_cycles(np.array(end), 2.0) <= 1.0  # the end samples alone

@@ -82,6 +82,24 @@ def test_turning_points_streaming_equals_batch():
     assert np.all(np.sign(d[1:]) == -np.sign(d[:-1]))
 
 
+@pytest.mark.parametrize("h", [0.0, 0.5, 2.0])
+def test_branch_free_tracker_step_equals_the_tracker(h):
+    # tp_select (the lockstep kernels' tracker) is tp_update bit for bit: state and points,
+    # on a walk with ties and plateaus (quantised) and on the hysteresis 0 edge case
+    rng = np.random.default_rng(11)
+    x = np.round(np.cumsum(rng.standard_normal(3000)) * 2.0) / 2.0
+    x[500:520] = x[499]  # a plateau
+    st = np.zeros(4)
+    lane = (0.0, 0.0, 0.0, 0.0)
+    for v in x:
+        ref = kpis.tp_update(st, float(v), h)
+        *lane, tp, hit = kpis.tp_select(*lane, float(v), h)
+        assert tuple(lane) == tuple(st)
+        assert hit == (not np.isnan(ref))
+        if hit:
+            assert tp == ref
+
+
 def brute_force_rainflow(series: np.ndarray) -> list[tuple[float, float]]:
     """ASTM E1049-85 four-point counting written out independently (test truth)."""
     pts = [series[0]]

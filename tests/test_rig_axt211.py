@@ -354,3 +354,54 @@ def test_step_takes_one_period_per_specimen():
         plant.step(x, u, -1.0, spec)
     with pytest.raises(ShapeError, match="u has shape"):
         plant.simulate(np.zeros((5, 2)), 1.0, spec)
+
+
+@pytest.mark.parametrize("h", [0.0, 0.5, 2.0])
+def test_noted_turns_give_the_turning_points_of_every_sample(h):
+    # what the rig notes over its sub-steps (Turns, note_turn) plus the first and last value:
+    # a hysteresis filter finds the same turning points as from every sample, hysteresis 0
+    # (where a repeated value counts) included; strictly monotone runs are dropped
+    from thermogym.envs.kpis import turning_points
+
+    rng = np.random.default_rng(5)
+    for _ in range(30):
+        x = np.round(np.cumsum(rng.standard_normal(400)) * 2.0) / 2.0  # ties
+        x[100:110] = x[99]  # a plateau
+        x[200:260] = np.linspace(x[199], x[199] + 30.0, 60)  # a long rise
+        st = np.array([x[0], 2.0, 0.0])
+        out = np.zeros(x.size)
+        for v in x[1:]:
+            ph.note_turn(float(v), st, out)
+        n = int(st[2])
+        kept = np.r_[x[0], out[:n], x[-1]]
+        np.testing.assert_array_equal(turning_points(kept, h), turning_points(x, h))
+        assert n < x.size - 60
+
+
+def test_turns_are_noted_over_the_steps_of_a_pwm_period():
+    from thermogym.rigs.base import Turns
+
+    plant = AXT211Plant()
+    spec = plant.nominal(2)
+    x = plant.initial_state(spec, np.array([0.0, 24.0, 25.0]))
+    x = plant.step(x, [1.0, 24.0, 25.0], 300.0, spec)  # warm
+    col = plant.state_names.index("T_w")
+    turns = Turns(col, 2, capacity=241)
+    turns.start(x)
+    dt_on = np.array([60.0, 0.0])  # specimen 1 off the whole period
+    a = plant.step(x, [1.0, 24.0, 25.0], dt_on, spec, turns=turns)
+    b = plant.step(a, [0.0, 24.0, 25.0], 120.0 - dt_on, spec, turns=turns)
+    # the same end state as without noting
+    ref = plant.step(plant.step(x, [1.0, 24.0, 25.0], dt_on, spec), [0.0, 24.0, 25.0],
+                     120.0 - dt_on, spec)  # fmt: skip
+    np.testing.assert_array_equal(b, ref)
+    # heated then cooled: one peak, above both ends; off only (after the warm-up) as well:
+    # the wax still takes heat from the hotter PTC at first, then cools
+    for i in (0, 1):
+        assert turns.count(i) == 1 and turns.noted(i)[0] > max(x[i, col], b[i, col])
+    small = Turns(col, 2, capacity=0)
+    small.start(x)
+    plant.step(x, [1.0, 24.0, 25.0], 1.0, spec, turns=small)
+    small.state[0, 2] = 5.0
+    with pytest.raises(ShapeError, match="capacity"):
+        small.count(0)

@@ -40,6 +40,8 @@ __all__ = [
     "put_lane",
     "tp_buffer_full",
     "tp_push",
+    "tp_push_all",
+    "tp_room",
 ]
 
 M_SIG, M_RES, M_LO, M_HI, M_OFF, M_DRIFT = range(6)
@@ -80,15 +82,50 @@ def plant_loops(row: Any, *modules: ModuleType) -> tuple[Any, Any]:
 
 
 @nb.njit(cache=True)
-def tp_buffer_full(active, ctr, tpbuf):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """Whether an active plant's turning-point buffer is full (grow it before any plant moves)."""
+def tp_buffer_full(active, ctr, tpbuf, room):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """Whether an active plant's turning-point buffer lacks ``room`` free places.
+
+    ``room`` is the most turning points one call of a step kernel can confirm (see
+    :func:`tp_room`); checked before any plant moves, the engine grows the buffer.
+    """
     for b in range(active.shape[0]):
-        if active[b] and ctr[b, 2] >= tpbuf.shape[1] - 1:
+        if active[b] and ctr[b, 2] + room > tpbuf.shape[1]:
             return True
     return False
 
 
-def block_steppers(rows: Any, bw: int, *modules: ModuleType) -> tuple[Any, Any]:
+def tp_room(period: float, max_step: float) -> int:
+    """Free places a turning-point buffer needs before a control period of ``period`` s.
+
+    The wax-temperature tracker is fed every integration sub-step of the period (steps of
+    at most ``max_step``; the heater's on and off parts each a whole number of them, so at
+    most ``ceil(period / max_step) + 1`` sub-steps), and one sample confirms at most one
+    turning point. A period with one heating and one cooling phase confirms two with a
+    hysteresis (a valley while it heats, a peak while it cools; the most the tests see),
+    but nothing bounds a trajectory's turns in general, and with hysteresis 0 every
+    repeated value confirms one: the sub-step count is the bound that always holds. One
+    place more for the first sample of an episode.
+
+    Examples
+    --------
+    >>> tp_room(10.0, 1.0), tp_room(120.0, 0.5)
+    (12, 242)
+    """
+    return math.ceil(period / max_step - 1e-9) + 2
+
+
+@nb.njit(cache=True)
+def tp_push_all(acc, r, c, vals, n, h, buf, ntp):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """Feed ``vals[:n]`` in order to the tracker in ``acc[r, c:c + 4]`` (:func:`tp_push`).
+
+    Returns the new count of turning points in ``buf[r]``.
+    """
+    for i in range(n):
+        ntp = tp_push(acc, r, c, vals[i], h, buf, ntp)
+    return ntp
+
+
+def block_steppers(rows: Any, bw: int, room_at: int, *modules: ModuleType) -> tuple[Any, Any]:
     """Step kernels of the AXT211 environments around their ``rows`` kernel.
 
     ``rows(lo, hi, mode, act, active, x, p, lanes, dist, aux, acc, tpbuf, ctr, noise, meas,
@@ -96,7 +133,8 @@ def block_steppers(rows: Any, bw: int, *modules: ModuleType) -> tuple[Any, Any]:
     of ``bw``. Returns ``step(mode, act, ...)`` over all plants, and ``step_parallel(...,
     nch)`` over ``nch`` chunks of whole blocks on threads (each chunk writes only its own
     rows, so results equal the serial ones). Both return 2 when a turning-point buffer must
-    grow first (nothing moved), else the largest status of ``rows``. Cache dependencies as
+    grow first (nothing moved: fewer free places than ``cfg[room_at]``, see
+    :func:`tp_room`), else the largest status of ``rows``. Cache dependencies as
     :func:`plant_loops`.
     """
 
@@ -104,7 +142,7 @@ def block_steppers(rows: Any, bw: int, *modules: ModuleType) -> tuple[Any, Any]:
     def step(
         mode, act, active, x, p, lanes, dist, aux, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
     ):  # type: ignore[no-untyped-def]  # pragma: no cover - numba
-        if tp_buffer_full(active, ctr, tpbuf):
+        if tp_buffer_full(active, ctr, tpbuf, int(cfg[room_at])):
             return 2
         return rows(
             0, x.shape[0], mode, act, active, x, p, lanes, dist, aux, acc, tpbuf, ctr, noise,
@@ -116,7 +154,7 @@ def block_steppers(rows: Any, bw: int, *modules: ModuleType) -> tuple[Any, Any]:
         mode, act, active, x, p, lanes, dist, aux, acc, tpbuf, ctr, noise, meas, cfg, obs, out,
         sig, nch,
     ):  # type: ignore[no-untyped-def]  # fmt: skip  # pragma: no cover - numba
-        if tp_buffer_full(active, ctr, tpbuf):
+        if tp_buffer_full(active, ctr, tpbuf, int(cfg[room_at])):
             return 2
         B = x.shape[0]
         nblk = -(-B // bw)

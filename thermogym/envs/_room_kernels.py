@@ -20,7 +20,7 @@ import numba as nb
 import numpy as np
 
 from thermogym.envs._kernels import block_steppers, cache_depends_on, measure, tp_push
-from thermogym.envs.kpis import tp_update_at
+from thermogym.envs.kpis import tp_select, tp_update_at
 from thermogym.models import axt211_dynamics as ax
 from thermogym.models import integrators
 from thermogym.models import room_dynamics as rd
@@ -28,11 +28,11 @@ from thermogym.models.integrators import rk4_accumulate, rk4_finish, rk4_stage_i
 
 __all__: list[str] = []
 
-# cfg layout
+# cfg layout (_ROOM: free turning-point places a step needs, see tp_room)
 (
     _T, _HMAX, _HOR, _AMODE, _KIND, _WC, _WH, _WA, _WS, _WLIM, _TRIP, _FROST, _HT, _HX,
-    _PREV, _OCC0, _OCC1, _OCCD, _SPO, _SPU, _BLO, _BHI, _SLO, _SHI, _GO, _GU,
-) = range(26)  # fmt: skip
+    _PREV, _OCC0, _OCC1, _OCCD, _SPO, _SPU, _BLO, _BHI, _SLO, _SHI, _GO, _GU, _ROOM,
+) = range(27)  # fmt: skip
 # acc layout
 _A_E, _A_Q, _A_SW, _A_TRAV, _A_ABOVE, _A_DISC, _A_ON, _A_UPREV, _A_QLAST = range(9)
 _A_TPT, _A_TPX = 9, 13
@@ -67,10 +67,13 @@ QUAD_S = 10.0
 
 
 @nb.njit(cache=True, inline="always")
-def _segment(x, u, kU, Tout, Qint, pb, L, hmax, kind, P0, Q0):  # pragma: no cover - numba
+def _segment(
+    x, u, kU, Tout, Qint, pb, L, hmax, kind, P0, Q0, b, acc, tpbuf, ntp, hT
+):  # pragma: no cover - numba
     # Advance one system (state tuple x) over a segment of length L with the heater command
     # u held, by the room model's RK4 steps (h <= max_step); P_PTC and Q_heat are integrated
-    # by the trapezoidal rule on intervals of at most QUAD_S seconds.
+    # by the trapezoidal rule on intervals of at most QUAD_S seconds. The wax temperature
+    # after every step goes to plant b's turning-point tracker (ntp: its count of points).
     n = max(1, math.ceil(L / hmax - 1e-9))
     h = L / n
     m = max(1, int(QUAD_S / h + 1e-9))
@@ -82,7 +85,9 @@ def _segment(x, u, kU, Tout, Qint, pb, L, hmax, kind, P0, Q0):  # pragma: no cov
     done = 0
     while done < n:
         s = min(m, n - done)
-        x = rd.advance(x, v * v, Tsup, Tout, Qint, h, s, q, r, e, kind)  # s RK4 steps
+        for _ in range(s):
+            x = rd.advance(x, v * v, Tsup, Tout, Qint, h, 1, q, r, e, kind)  # one RK4 step
+            ntp = tp_push(acc, b, _A_TPT, x[0], hT, tpbuf, ntp)
         P1 = ax.power(v * v, ax.resistance(x[0], q), pb[ax.I_RS]) if u > 0.0 else 0.0
         Q1 = rd.heat(x[4], x[5], r)
         E += 0.5 * (P0 + P1) * s * h
@@ -90,7 +95,7 @@ def _segment(x, u, kU, Tout, Qint, pb, L, hmax, kind, P0, Q0):  # pragma: no cov
         P0 = P1
         Q0 = Q1
         done += s
-    return x, E, Q, Q0
+    return x, E, Q, Q0, ntp
 
 
 # ------------------------------------------------------------------ lockstep kernel
@@ -100,18 +105,24 @@ def _segment(x, u, kU, Tout, Qint, pb, L, hmax, kind, P0, Q0):  # pragma: no cov
 # the stages (_stage, with room._deriv_lane) are room._advance operation for operation and
 # the trapezoidal points are those of _segment, so results are bit for bit those of
 # stepping each plant alone. Parameter sets with an active actuator effect take the scalar
-# _room_dyn. A block lives in one flat array, row r of lane i at wb[r * W + i].
+# _room_dyn. A block lives in one flat array, row r of lane i at wb[r * W + i]. The wax
+# temperature after every sub-step goes to a copy of the plant's turning-point tracker in
+# the block (tp_select; points to _NSLOT rows per lane, a period that confirms more is
+# stepped again by _room_dyn), as in axt211_valve's lockstep.
 
 _NQA = rd.LANE_ROOM  # the room's coefficient rows follow the actuator's in a block
 _NQ = rd.LANE_PLAIN  # parameter rows in a block (the plain flag goes to _R_PLAIN)
 (
     _R_TP, _R_TG, _R_XP, _R_XV, _R_TR, _R_TA, _R_TS, _R_NON, _R_NTOT, _R_HON, _R_HOFF,
     _R_MQON, _R_MQOFF, _R_CNT, _R_E, _R_QON, _R_QOFF, _R_P0, _R_Q0, _R_KU2, _R_TOUT,
-    _R_QINT, _R_TSUP, _R_BASE, _R_PW, _R_EXPV, _R_PWV, _R_H, _R_V2,
-) = range(_NQ, _NQ + 29)  # fmt: skip
-_R_K = _NQ + 29  # 6 rows: derivatives of the last stage (all states but x_V)
+    _R_QINT, _R_TSUP, _R_BASE, _R_PW, _R_EXPV, _R_PWV, _R_H, _R_V2, _R_NTPS,
+) = range(_NQ, _NQ + 30)  # fmt: skip
+_R_K = _NQ + 30  # 6 rows: derivatives of the last stage (all states but x_V)
 _R_S = _R_K + 6  # 6 rows: their weighted RK4 sum so far
-_NROW = _R_S + 6
+_R_TRK = _R_S + 6  # 2 rows: the wax-temperature tracker (as in axt211_valve's lockstep)
+_NSLOT = 2  # turning points a lane keeps per period (a valley and a peak, with hysteresis)
+_R_TPS = _R_TRK + 2  # _NSLOT rows: turning points confirmed in the period
+_NROW = _R_TPS + _NSLOT
 _R_PLAIN = _NROW  # 1 where the plant has no actuator effect (the lockstep applies)
 _NROWB = _NROW + 1  # rows of a block array: the engine keeps one per block of plants, so the
 # parameter rows (0.._NQ-1, written when a parameter set is installed) are not copied per step
@@ -139,22 +150,32 @@ def _room_inputs(b, acc):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True)
-def _room_dyn(xb, d, kU, Tout, Qint, pb, T, hmax, kind, Q0):  # pragma: no cover - numba
+def _room_dyn(
+    xb, d, kU, Tout, Qint, pb, T, hmax, kind, Q0, b, acc, tpbuf, ctr, hT
+):  # pragma: no cover - numba
     # one plant over one period by the model's scalar RK4 (actuator effects included): on
-    # for d·T, then off; returns the actuator energy [J], the heat [J] and the last Q_heat
+    # for d·T, then off; returns the actuator energy [J], the heat [J] and the last Q_heat.
+    # The wax temperature after every RK4 step goes to plant b's turning-point tracker
+    # (hysteresis hT; acc, tpbuf, ctr as _room_post)
     x = (xb[0], xb[1], xb[2], xb[3], xb[4], xb[5], xb[6])
     E = 0.0
     Qsum = 0.0
+    ntp = ctr[b, 2]
     ton = d * T
     if ton > 0.0:
         P0 = ax.power(kU * kU, ax.resistance(x[0], ax.coefficients(pb)), pb[ax.I_RS])
-        x, e1, q1, Q0 = _segment(x, 1.0, kU, Tout, Qint, pb, ton, hmax, kind, P0, Q0)
+        x, e1, q1, Q0, ntp = _segment(
+            x, 1.0, kU, Tout, Qint, pb, ton, hmax, kind, P0, Q0, b, acc, tpbuf, ntp, hT
+        )
         E += e1
         Qsum += q1
     toff = T - ton
     if toff > 1e-9 * T:
-        x, _, q1, Q0 = _segment(x, 0.0, kU, Tout, Qint, pb, toff, hmax, kind, 0.0, Q0)
+        x, _, q1, Q0, ntp = _segment(
+            x, 0.0, kU, Tout, Qint, pb, toff, hmax, kind, 0.0, Q0, b, acc, tpbuf, ntp, hT
+        )
         Qsum += q1
+    ctr[b, 2] = ntp
     for j in range(7):
         xb[j] = x[j]
     return E, Qsum, Q0
@@ -165,9 +186,10 @@ def _room_post(
     b, mode, d, E, Qsum, xV0, x, p, dist, tab, acc, tpbuf, ctr, noise, meas, cfg, obs, out, sig
 ):  # pragma: no cover - numba
     # KPIs, reward and measurement of plant b after its step (mode 0) or at the start (1).
-    # Inlined into the row loop: a call per plant would increment and decrement the
-    # reference count of each of its array arguments (atomic operations, measured 7 % of a
-    # vector step)
+    # The wax-temperature tracker has had the period's sub-steps already (the dynamics feed
+    # it); here it gets the first sample of an episode. Inlined into the row loop: a call
+    # per plant would increment and decrement the reference count of each of its array
+    # arguments (atomic operations, measured 7 % of a vector step)
     T = cfg[_T]
     TP = x[b, 0]
     xV = x[b, 3]
@@ -203,8 +225,7 @@ def _room_post(
         acc[b, _A_DISC] += D
         if TP > cfg[_WLIM]:
             acc[b, _A_ABOVE] += T
-        ntp = tp_push(acc, b, _A_TPT, TP, cfg[_HT], tpbuf, ntp)
-        tp_update_at(acc, b, _A_TPX, xV, cfg[_HX])
+        tp_update_at(acc, b, _A_TPX, xV, cfg[_HX])  # the stroke: once per period
         r = -(cfg[_WC] * D + cfg[_WH] * Qsum / 3.6e6 + cfg[_WA] * E / 3600.0 + cfg[_WS] * sw)
         k += 1
         ctr[b, 0] = k
@@ -297,7 +318,7 @@ def _powers(wb, W, kind):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, inline="always")
-def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
+def _stage(wb, W, i, sf, j, kind, hT):  # pragma: no cover - numba
     # stage j (1-4, a compile-time constant) of RK4 sub-step sf of lane i: the model's step
     # (room_dynamics.step) cut into stages by the shared integrator's stage functions, with
     # the power laws from _powers and the sub-step's step size and heater input from _prepare
@@ -341,6 +362,8 @@ def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
         xn[3] if run else x[3], xn[4] if run else x[4], xn[5] if run else x[5],
     )  # fmt: skip
     y3 = xVn if run else xV
+    if last:  # (a compile-time constant) the wax temperature after the sub-step
+        _lane_tracker(wb, W, i, y[0], run, hT)
     wb[_R_TP * W + i] = y[0]
     wb[_R_TG * W + i] = y[1]
     wb[_R_XP * W + i] = y[2]
@@ -351,6 +374,25 @@ def _stage(wb, W, i, sf, j, kind):  # pragma: no cover - numba
     # arguments of the powers of the next stage (stage 1 of the next sub-step after 4)
     nxt = y if last else rk4_stage_input(x, k, h, j + 1)
     _stage_base(wb, W, i, nxt[2], y3 if last else xV, nxt[3], nxt[4], kind)
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_tracker(wb, W, i, v, run, hT):  # pragma: no cover - numba
+    # lane i's wax-temperature tracker (started: the first sample of the episode is in) takes
+    # sample v (if run); a confirmed turning point goes to the next of its _NSLOT rows (the
+    # count goes on past them: overflow). Its count of confirmed points is the plant's plus
+    # the lane's count after the period
+    ex = wb[_R_TRK * W + i]
+    dr = wb[(_R_TRK + 1) * W + i]
+    n = wb[_R_NTPS * W + i]
+    _, ex1, dr1, _, tp, hit = tp_select(1.0, ex, dr, 0.0, v, hT)
+    hit = hit & run
+    wb[_R_TRK * W + i] = ex1 if run else ex
+    wb[(_R_TRK + 1) * W + i] = dr1 if run else dr
+    for k in range(_NSLOT):
+        old = wb[(_R_TPS + k) * W + i]
+        wb[(_R_TPS + k) * W + i] = tp if (hit & (n == k)) else old
+    wb[_R_NTPS * W + i] = n + 1.0 if hit else n
 
 
 _load6 = integrators.loader(6)
@@ -389,16 +431,16 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
 
     def stage_loop(j):  # type: ignore[no-untyped-def]
         @nb.njit(cache=True, error_model="numpy", _nrt=False)
-        def stage(wb, sf):  # pragma: no cover - numba
+        def stage(wb, sf, hT):  # pragma: no cover - numba
             for i in range(W):
-                _stage(wb, W, i, sf, j, kind)
+                _stage(wb, W, i, sf, j, kind, hT)
 
         return stage
 
     st1, st2, st3, st4 = stage_loop(1), stage_loop(2), stage_loop(3), stage_loop(4)
 
     @nb.njit(cache=True, error_model="numpy", _nrt=False)
-    def lockstep(wb, nmax):  # pragma: no cover - numba
+    def lockstep(wb, nmax, hT):  # pragma: no cover - numba
         # nmax RK4 sub-steps of the W lanes of block wb, then the last trapezoidal points
         for i in range(W):
             _stage_base(
@@ -409,13 +451,13 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
             sf = float(s)
             _prepare(wb, W, sf)
             _powers(wb, W, kind)
-            st1(wb, sf)
+            st1(wb, sf, hT)
             _powers(wb, W, kind)
-            st2(wb, sf)
+            st2(wb, sf, hT)
             _powers(wb, W, kind)
-            st3(wb, sf)
+            st3(wb, sf, hT)
             _powers(wb, W, kind)
-            st4(wb, sf)
+            st4(wb, sf, hT)
         _powers(wb, W, 0)
         sf = float(nmax)
         for i in range(W):
@@ -432,7 +474,7 @@ def _make_lockstep(W, kind):  # type: ignore[no-untyped-def]
     return lockstep, (st1, st2, st3, st4)
 
 
-_BW = 32  # lanes of a full block (77 rows x 32 lanes x 8 B = 19 KiB: L1 cache)
+_BW = 32  # lanes of a full block (81 rows x 32 lanes x 8 B = 20 KiB: L1 cache)
 
 
 @nb.njit(cache=True)
@@ -464,13 +506,14 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
 
     @nb.njit(cache=True)
     def block(
-        b0, W, wb, act, active, x, p, dist, tab, acc, cfg, ctr, dd, EE, QQ, xv0, ok, lo
+        b0, W, wb, act, active, x, p, dist, tab, acc, tpbuf, cfg, ctr, dd, EE, QQ, xv0, ok, lo
     ):  # pragma: no cover - numba
         # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid.
         # wb: the block's array (parameter rows filled, row stride _BW; W < _BW only for the
         # last, partial block, whose plants take the scalar kernel)
         T = cfg[_T]
         hmax = cfg[_HMAX]
+        hT = cfg[_HT]
         kind = int(cfg[_KIND])
         status = 0
         nmax = 0
@@ -488,12 +531,17 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                     dd[j] = d
                     xv0[j] = x[b, 3]
                     Tout, Qint = _room_inputs(b, acc)
-                    # the scalar kernel: actuator effects, the lanes of a partial block, and every
-                    # plant of the variant without lockstep
-                    if not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0:
+                    # the scalar kernel: actuator effects, the lanes of a partial block, every
+                    # plant of the variant without lockstep (and a wax-temperature tracker
+                    # without its first sample, which the lanes' tracker assumes)
+                    if (
+                        not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0
+                        or acc[b, _A_TPT] == 0.0
+                    ):  # fmt: skip
                         EE[j], QQ[j], acc[b, _A_QLAST] = _room_dyn(
-                            x[b], d, dist[b, 0], Tout, Qint, p[b], T, hmax, kind, acc[b, _A_QLAST]
-                        )
+                            x[b], d, dist[b, 0], Tout, Qint, p[b], T, hmax, kind,
+                            acc[b, _A_QLAST], b, acc, tpbuf, ctr, hT,
+                        )  # fmt: skip
                     else:
                         ton = d * T
                         toff = T - ton
@@ -527,14 +575,34 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
             for k in range(6):
                 wb[(_R_K + k) * W + i] = 0.0
                 wb[(_R_S + k) * W + i] = 0.0
+            wb[_R_NTPS * W + i] = 0.0
+            wb[_R_TRK * W + i] = acc[b, _A_TPT + 1]  # extreme
+            wb[(_R_TRK + 1) * W + i] = acc[b, _A_TPT + 2]  # direction
         if not lockstep:  # (a compile-time constant: the lockstep code is pruned)
             return status
         if nmax > 0:
-            ls(wb, nmax)
+            ls(wb, nmax, hT)
             for i in range(W):
                 ntot = wb[_R_NTOT * W + i]
                 if ntot > 0.0:
                     b = b0 + i
+                    n = int(wb[_R_NTPS * W + i])
+                    if n > _NSLOT:
+                        # more turning points than slots: the period again by the scalar
+                        # kernel (same arithmetic), from the start state still in x[b]
+                        Tout, Qint = _room_inputs(b, acc)
+                        EE[b - lo], QQ[b - lo], acc[b, _A_QLAST] = _room_dyn(
+                            x[b], dd[b - lo], dist[b, 0], Tout, Qint, p[b], T, hmax, kind,
+                            acc[b, _A_QLAST], b, acc, tpbuf, ctr, hT,
+                        )  # fmt: skip
+                        continue
+                    ntp = ctr[b, 2]
+                    for k in range(n):
+                        tpbuf[b, ntp + k] = wb[(_R_TPS + k) * W + i]
+                    ctr[b, 2] = ntp + n
+                    acc[b, _A_TPT + 1] = wb[_R_TRK * W + i]
+                    acc[b, _A_TPT + 2] = wb[(_R_TRK + 1) * W + i]
+                    acc[b, _A_TPT + 3] += n  # each point of the lane a confirmed turn
                     for k in range(7):
                         x[b, k] = wb[(_R_TP + k) * W + i]
                     non = wb[_R_NON * W + i]
@@ -569,8 +637,8 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
             while b < hi:
                 W = min(_BW, hi - b)
                 s = block(
-                    b, W, lanes[b // _BW], act, active, x, p, dist, tab, acc, cfg, ctr, dd, EE,
-                    QQ, xv0, ok, lo,
+                    b, W, lanes[b // _BW], act, active, x, p, dist, tab, acc, tpbuf, cfg, ctr,
+                    dd, EE, QQ, xv0, ok, lo,
                 )  # fmt: skip
                 status = max(status, s)
                 b += W
@@ -583,7 +651,7 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
                 )  # fmt: skip
         return status
 
-    step, step_parallel = block_steppers(rows, _BW)
+    step, step_parallel = block_steppers(rows, _BW, _ROOM)
 
     @nb.njit
     def rollout(
@@ -627,5 +695,5 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
     return _StepKernels(step, step_parallel, rollout)
 
 
-for _k in (_room_dyn, _room_post, _part):
+for _k in (_room_dyn, _room_post, _part, _lane_tracker):
     cache_depends_on(_k)

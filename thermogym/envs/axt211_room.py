@@ -73,9 +73,11 @@ KPIs
 ``discomfort_Kh``, ``heat_delivered_kWh``, ``actuator_energy_Wh``,
 ``switch_cycles``, ``stroke_travel_mm``, ``stroke_reversals``,
 ``wax_thermal_cycles``, ``wax_damage``, ``time_above_limit_h`` (wax above
-``wax_limit_C``), ``episode_h``. Zone temperature and occupancy are sampled at
-the end of every period; energies are integrated by the trapezoidal rule on
-intervals of at most 10 s.
+``wax_limit_C``), ``episode_h``. The wax temperature's turning points are
+taken after every RK4 sub-step (with ``plant="rig"``: every sub-step of the
+rig), so that the heating and cooling within one PWM period count; zone
+temperature, occupancy and the stroke are sampled at the end of every period;
+energies are integrated by the trapezoidal rule on intervals of at most 10 s.
 
 Fast path
 ---------
@@ -129,6 +131,8 @@ from thermogym.envs._kernels import (
     meas_array,
     put_lane,
     tp_buffer_full,
+    tp_push_all,
+    tp_room,
 )
 from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
 from thermogym.envs._room_kernels import (
@@ -155,6 +159,7 @@ from thermogym.envs._room_kernels import (
     _OCC1,
     _OCCD,
     _R_PLAIN,
+    _ROOM,
     _T,
     _TRIP,
     _clock,
@@ -346,6 +351,7 @@ class _RoomEngine(Engine):
                 check_number(env, "reversal_hysteresis_mm", cfg.reversal_hysteresis_mm, lo=0.0),
                 1.0 if cfg.previous_action else 0.0,
                 occ0, occ1, float(occd), spo, spu, blo, bhi, slo, shi, go, gu,
+                float(tp_room(T, RoomModel.max_step)),
             ]
         )  # fmt: skip
         self.x = np.zeros((B, 7))
@@ -458,7 +464,8 @@ class _RoomEngine(Engine):
             if self.ctr[0, C_CUR] >= NOISE_BLOCK:
                 self.refill(0, rng)
             n = min(NOISE_BLOCK - int(self.ctr[0, C_CUR]), max_steps - done_steps)
-            if self.ctr[0, 2] + n >= self.tpbuf.shape[1] - 1:
+            # room for the turning points n periods can confirm (each up to cfg[_ROOM])
+            while self.ctr[0, C_NTP] + n * int(self.cfgv[_ROOM]) > self.tpbuf.shape[1]:
                 self.tpbuf = np.concatenate([self.tpbuf, np.zeros_like(self.tpbuf)], axis=1)
             status, i, r = _step_kernels(int(self.cfgv[_KIND]), False).rollout(
                 controller, state, n, self.act, self.active, self.x, self.p, self.lanes, self.dist,
@@ -482,11 +489,15 @@ class _RoomRigEngine(_RoomEngine):
     actuator) advances all plants at once, heater on for ``d·T`` then off; the outdoor
     temperature and the gains of the period are those the model path uses, split into
     solar and occupancy gains; KPIs and reward come from the rig's physical state through
-    :func:`_room_post`, the observation from the rig's sensors.
+    :func:`_room_post`, the observation from the rig's sensors. The wax-temperature
+    tracker gets the turns of the cartridge temperature over the rig's sub-steps
+    (:class:`thermogym.rigs.base.Turns`) and its value at the period's end: the turning
+    points of every sub-step.
     """
 
     def __init__(self, B: int, cfg: RoomConfig) -> None:
         from thermogym.envs._rig import RigSensors  # the rigs load only for plant='rig'
+        from thermogym.rigs.base import Turns
 
         super().__init__(B, cfg)
         pl = self.plant
@@ -499,6 +510,11 @@ class _RoomRigEngine(_RoomEngine):
         )
         self._ia, self._ii, self._iq = (names.index(n) for n in ("T_air", "T_int", "Q_J"))
         self._irad = [i for i, n in enumerate(names) if n.startswith("T_rad_")]
+        # the rig's sub-steps per period (on and off parts) bound the turns noted and the
+        # turning points a period can confirm
+        room = tp_room(self._dt, self.tp.max_step) + 1
+        self.cfgv[_ROOM] = room
+        self.turns = Turns(self._iw, B, capacity=room)
         lo, hi = self.obs_bounds()
         spans = [(float(lo[0]), float(hi[0])), (float(lo[2]), float(hi[2]))]
         self.rsens = RigSensors(ENV, pl.rig, _CH, spans, cfg.sensor_noise, _CH, B)
@@ -550,7 +566,7 @@ class _RoomRigEngine(_RoomEngine):
                        self.obs, self.out, self.sig)  # fmt: skip
 
     def _kernel(self, mode: int) -> int:
-        if tp_buffer_full(self.active, self.ctr, self.tpbuf):
+        if tp_buffer_full(self.active, self.ctr, self.tpbuf, int(self.cfgv[_ROOM])):
             return 2  # ST_GROW: the engine grows the turning-point buffer and calls again
         rows = np.flatnonzero(self.active)
         zero = np.zeros(self.B)
@@ -585,10 +601,20 @@ class _RoomRigEngine(_RoomEngine):
         u_off = u_on.copy()
         u_off[:, 0] = 0.0
         ton = np.where(ok, d * T, 0.0)
-        xr = self.tp.step(self.xr, u_on, ton, self.spec, t)
-        self.xr = self.tp.step(xr, u_off, np.where(ok, T - ton, 0.0), self.spec, t + ton)
-        E = self.xr[:, self._ie] - E0
-        Q = self.xr[:, self._iq] - Q0
+        turns = self.turns
+        turns.start(self.xr)
+        xr = self.tp.step(self.xr, u_on, ton, self.spec, t, turns=turns)
+        xr = self.tp.step(xr, u_off, np.where(ok, T - ton, 0.0), self.spec, t + ton, turns=turns)
+        self.xr = xr
+        E = xr[:, self._ie] - E0
+        Q = xr[:, self._iq] - Q0
+        iw, hT = self._iw, self.cfgv[_HT]
+        for b in np.flatnonzero(ok):
+            # the wax temperature's turns within the period, then its value at the end
+            ntp = tp_push_all(self.acc, b, _A_TPT, turns.values[b], turns.count(int(b)), hT,
+                              self.tpbuf, self.ctr[b, C_NTP])  # fmt: skip
+            self.ctr[b, C_NTP] = tp_push_all(self.acc, b, _A_TPT, xr[b, iw : iw + 1], 1, hT,
+                                             self.tpbuf, ntp)  # fmt: skip
         self._post(np.flatnonzero(ok), 0, d, E, Q, xv0)
         readings = self.rsens.read(ok, self._truth(), T, self._rngs)
         self.obs[ok, 0] = readings[ok, 0]

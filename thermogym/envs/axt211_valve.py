@@ -73,8 +73,11 @@ KPIs (``info["kpis"]`` at the episode end; :mod:`thermogym.envs.kpis`)
 ``wax_thermal_cycles`` and ``wax_damage`` (rainflow on T_P with
 ``cycle_hysteresis_K``), ``time_above_limit_h`` (T_P above
 ``wax_limit_C``), ``stroke_rmse_mm``, ``stroke_iae_mm_s``, ``episode_h``.
-Signals are sampled at the end of every control period; the energy is
-integrated by the trapezoidal rule on intervals of at most 10 s.
+The wax temperature's turning points are taken after every RK4 sub-step
+(with ``plant="rig"``: every sub-step of the rig), so that the heating and
+cooling within one PWM period count as a thermal cycle; the other signals are
+sampled at the end of every control period (the stroke reversals too). The
+energy is integrated by the trapezoidal rule on intervals of at most 10 s.
 
 Version History
 ---------------
@@ -116,9 +119,11 @@ from thermogym.envs._kernels import (
     put_lane,
     tp_buffer_full,
     tp_push,
+    tp_push_all,
+    tp_room,
 )
 from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
-from thermogym.envs.kpis import _rainflow_tp, tp_finish, tp_update_at, wax_cycle_kpis
+from thermogym.envs.kpis import _rainflow_tp, tp_finish, tp_select, tp_update_at, wax_cycle_kpis
 from thermogym.errors import ConfigError
 from thermogym.models import axt211_dynamics as ax
 from thermogym.models.axt211 import AXT211
@@ -192,8 +197,9 @@ class ValveConfig:
     """``scale``, ``names``, ``bounds`` of the randomisation."""
 
 
-# cfg vector layout
-_T, _HMAX, _HOR, _AMODE, _HOLD, _WT, _WE, _WS, _WV, _PREF, _WLIM, _TRIP, _HT, _HX, _PREV = range(15)
+# cfg vector layout (_ROOM: free turning-point places a step needs, see tp_room)
+(_T, _HMAX, _HOR, _AMODE, _HOLD, _WT, _WE, _WS, _WV, _PREF, _WLIM, _TRIP, _HT, _HX, _PREV,
+ _ROOM) = range(16)  # fmt: skip
 # acc layout
 _A_E, _A_SW, _A_TRAV, _A_ABOVE, _A_IAE, _A_SSE, _A_N, _A_ON, _A_UPREV = range(9)
 _A_TPT = 9  # wax-temperature tracker (4)
@@ -235,29 +241,35 @@ QUAD_S = 10.0
 
 
 @nb.njit(cache=True)
-def _dyn_scalar(xb, d, kU, TU, pb, T, hmax):  # pragma: no cover - numba
+def _dyn_scalar(xb, d, kU, TU, pb, T, hmax, b, acc, tpbuf, ctr, hT):  # pragma: no cover
     # One plant over one control period by the model's RK4 step (physical effects included):
     # on for d·T, then off. P_PTC is integrated by the trapezoidal rule on intervals of at
     # most QUAD_S (a few RK4 steps; within 0.5 % of a 0.1 s quadrature, see the tests).
-    # Returns the energy [J].
+    # The wax temperature after every RK4 step goes to plant b's turning-point tracker
+    # (hysteresis hT; acc, tpbuf, ctr as _valve_post). Returns the energy [J].
     n_on, h_on, n_off, h_off = _segments(d, T, hmax)
     q, e, Rs = ax.coefficients(pb), ax.effect_coefficients(pb), pb[ax.I_RS]
     x = (xb[0], xb[1], xb[2], xb[3])
     v2 = kU * kU  # (k_U u)², u = 1
     E = 0.0
+    ntp = ctr[b, 2]
     if n_on > 0:
         m = max(1, int(QUAD_S / h_on + 1e-9))
         P0 = ax.power(v2, ax.resistance(x[0], q), Rs)
         done = 0
         while done < n_on:
             s = min(m, n_on - done)
-            x = ax.advance(x, v2, TU, h_on, s, q, e)  # (17)-(21), s RK4 steps
+            for _ in range(s):
+                x = ax.advance(x, v2, TU, h_on, 1, q, e)  # (17)-(21), one RK4 step
+                ntp = tp_push(acc, b, _A_TPT, x[0], hT, tpbuf, ntp)
             P1 = ax.power(v2, ax.resistance(x[0], q), Rs)  # (15)
             E += 0.5 * (P0 + P1) * s * h_on
             P0 = P1
             done += s
-    if n_off > 0:
-        x = ax.advance(x, 0.0, TU, h_off, n_off, q, e)
+    for _ in range(n_off):
+        x = ax.advance(x, 0.0, TU, h_off, 1, q, e)
+        ntp = tp_push(acc, b, _A_TPT, x[0], hT, tpbuf, ntp)
+    ctr[b, 2] = ntp
     xb[0], xb[1], xb[2], xb[3] = x
     return E
 
@@ -285,7 +297,9 @@ def _valve_post(
     out,
     sig,
 ):  # pragma: no cover - numba
-    # KPIs, reward and measurement of plant b after its step (mode 0) or at the start (1)
+    # KPIs, reward and measurement of plant b after its step (mode 0) or at the start (1).
+    # The wax-temperature tracker has had the period's sub-steps already (the dynamics feed
+    # it); here it gets the first sample of an episode
     T = cfg[_T]
     hold = int(cfg[_HOLD])
     nseg = sp.shape[1]
@@ -313,8 +327,7 @@ def _valve_post(
         acc[b, _A_N] += 1.0
         if TP > cfg[_WLIM]:
             acc[b, _A_ABOVE] += T
-        ntp = tp_push(acc, b, _A_TPT, TP, cfg[_HT], tpbuf, ntp)
-        tp_update_at(acc, b, _A_TPX, xV, cfg[_HX])
+        tp_update_at(acc, b, _A_TPX, xV, cfg[_HX])  # the stroke: once per period
         r = -(
             cfg[_WT] * abs(e) / xmax
             + cfg[_WE] * Pm / cfg[_PREF]
@@ -364,14 +377,23 @@ def _valve_post(
 # A block lives in one flat array ``wb``: row r of lane i at wb[r * W + i], W a
 # compile-time constant, so that LLVM sees the rows as disjoint and vectorises without
 # run-time alias checks (it refuses for separate arrays: too many checks).
+#
+# The wax temperature after every sub-step goes to the plant's turning-point tracker, a
+# copy of it in the block's rows (the branch-free tp_select, bit for bit tp_update); the
+# turning points it confirms go to _NSLOT rows per lane, to the plant's buffer after the
+# period. A period that confirms more (hysteresis 0, or a trajectory that turns often) is
+# stepped again from its start by the scalar kernel (the lockstep wrote nothing back).
 
-_BW = 64  # lanes of a full block: its 35 rows x 64 lanes x 8 B = 18 KiB stay in L1 cache
+_BW = 64  # lanes of a full block: its 40 rows x 64 lanes x 8 B = 20 KiB stay in L1 cache
 _NQ = ax.N_COEF  # lane-table rows in a block (all but the plain flag)
+_NSLOT = 2  # turning points a lane keeps per period (a valley and a peak, with hysteresis)
 (_R_TP, _R_TG, _R_XP, _R_XV, _R_NON, _R_NTOT, _R_HON, _R_HOFF, _R_MQ, _R_CNT, _R_E, _R_P0,
- _R_KU2, _R_TU) = range(_NQ, _NQ + 14)  # fmt: skip
-_R_PLAIN = _NQ + 14  # 1 where the plant has no physical effect (the lockstep applies)
-_NROWB = _NQ + 15  # rows of a block array: the engine keeps one per block of plants, so the
-# parameter rows (written when a parameter set is installed) are not copied per step
+ _R_KU2, _R_TU, _R_NTPS) = range(_NQ, _NQ + 15)  # fmt: skip
+_R_TRK = _NQ + 15  # 2 rows: the wax-temperature tracker's extreme and direction
+_R_TPS = _R_TRK + 2  # _NSLOT rows: turning points confirmed in the period
+_R_PLAIN = _R_TPS + _NSLOT  # 1 where the plant has no physical effect (the lockstep applies)
+_NROWB = _R_PLAIN + 1  # rows of a block array: the engine keeps one per block of plants, so
+# the parameter rows (written when a parameter set is installed) are not copied per step
 
 
 @nb.njit(cache=True, inline="always")
@@ -390,7 +412,26 @@ def _quad_point(wb, W, i, sf, non, hon, ku2, R):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, inline="always")
-def _lockstep(wb, W, nmax):  # pragma: no cover - numba
+def _lane_tracker(wb, W, i, v, run, hT):  # pragma: no cover - numba
+    # lane i's wax-temperature tracker (started: the first sample of the episode is in) takes
+    # sample v (if run); a confirmed turning point goes to the next of its _NSLOT rows (the
+    # count goes on past them: overflow). Its count of confirmed points is the plant's plus
+    # the lane's count after the period
+    ex = wb[_R_TRK * W + i]
+    dr = wb[(_R_TRK + 1) * W + i]
+    n = wb[_R_NTPS * W + i]
+    _, ex1, dr1, _, tp, hit = tp_select(1.0, ex, dr, 0.0, v, hT)
+    hit = hit & run
+    wb[_R_TRK * W + i] = ex1 if run else ex
+    wb[(_R_TRK + 1) * W + i] = dr1 if run else dr
+    for k in range(_NSLOT):
+        old = wb[(_R_TPS + k) * W + i]
+        wb[(_R_TPS + k) * W + i] = tp if (hit & (n == k)) else old
+    wb[_R_NTPS * W + i] = n + 1.0 if hit else n
+
+
+@nb.njit(cache=True, inline="always")
+def _lockstep(wb, W, nmax, hT):  # pragma: no cover - numba
     # nmax RK4 sub-steps of the W lanes of block wb, then the last trapezoidal points
     for s in range(nmax):
         sf = float(s)
@@ -413,6 +454,7 @@ def _lockstep(wb, W, nmax):  # pragma: no cover - numba
             wb[_R_TG * W + i] = TGn if run else TG
             wb[_R_XP * W + i] = xPn if run else xP
             wb[_R_XV * W + i] = xVn if run else xV
+            _lane_tracker(wb, W, i, TPn, run, hT)
     sf = float(nmax)
     for i in range(W):
         R = ax.resistance(wb[_R_TP * W + i], ax.load_coefficients(wb, 0, W, i))
@@ -420,8 +462,8 @@ def _lockstep(wb, W, nmax):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, error_model="numpy")
-def _lockstep_bw(wb, nmax):  # pragma: no cover - numba
-    _lockstep(wb, _BW, nmax)
+def _lockstep_bw(wb, nmax, hT):  # pragma: no cover - numba
+    _lockstep(wb, _BW, nmax, hT)
 
 
 class _StepKernels(NamedTuple):
@@ -444,13 +486,14 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
 
     @nb.njit(cache=True)
     def block(
-        b0, W, wb, act, active, x, p, dist, cfg, ctr, dd, EE, xv0, ok, lo
+        b0, W, wb, act, active, x, p, dist, acc, tpbuf, cfg, ctr, dd, EE, xv0, ok, lo
     ):  # pragma: no cover - numba
         # advance plants b0..b0+W-1 by one control period; returns 1 if an action was invalid.
         # wb: the block's array (parameter rows filled, row stride _BW; W < _BW only for the
         # last, partial block, whose plants take the scalar kernel)
         T = cfg[_T]
         hmax = cfg[_HMAX]
+        hT = cfg[_HT]
         status = 0
         nmax = 0
         for i in range(W):
@@ -465,10 +508,17 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
                     ok[j] = True
                     dd[j] = d
                     xv0[j] = x[b, 3]
-                    # the scalar kernel: physical effects, the lanes of a partial block, and every
-                    # plant of the variant without lockstep
-                    if not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0:
-                        EE[j] = _dyn_scalar(x[b], d, dist[b, 0], dist[b, 1], p[b], T, hmax)
+                    # the scalar kernel: physical effects, the lanes of a partial block, every
+                    # plant of the variant without lockstep (and a wax-temperature tracker
+                    # without its first sample, which the lanes' tracker assumes)
+                    if (
+                        not lockstep or W != _BW or wb[_R_PLAIN * _BW + i] == 0.0
+                        or acc[b, _A_TPT] == 0.0
+                    ):  # fmt: skip
+                        EE[j] = _dyn_scalar(
+                            x[b], d, dist[b, 0], dist[b, 1], p[b], T, hmax, b, acc, tpbuf, ctr,
+                            hT,
+                        )  # fmt: skip
                     else:
                         non, hon, n_off, hoff = _segments(d, T, hmax)
                         ntot = non + n_off
@@ -491,18 +541,37 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
             wb[_R_P0 * W + i] = 0.0
             wb[_R_KU2 * W + i] = dist[b, 0] * dist[b, 0]
             wb[_R_TU * W + i] = dist[b, 1]
+            wb[_R_NTPS * W + i] = 0.0
+            wb[_R_TRK * W + i] = acc[b, _A_TPT + 1]  # extreme
+            wb[(_R_TRK + 1) * W + i] = acc[b, _A_TPT + 2]  # direction
         if not lockstep:  # (a compile-time constant: the lockstep code is pruned)
             return status
         if nmax > 0:
-            ls(wb, nmax)
+            ls(wb, nmax, hT)
             for i in range(W):
                 if wb[_R_NTOT * W + i] > 0.0:
                     b = b0 + i
+                    n = int(wb[_R_NTPS * W + i])
+                    if n > _NSLOT:
+                        # more turning points than slots: the period again by the scalar
+                        # kernel (same arithmetic), from the start state still in x[b]
+                        EE[b - lo] = _dyn_scalar(
+                            x[b], dd[b - lo], dist[b, 0], dist[b, 1], p[b], T, hmax, b, acc,
+                            tpbuf, ctr, hT,
+                        )  # fmt: skip
+                        continue
                     x[b, 0] = wb[_R_TP * W + i]
                     x[b, 1] = wb[_R_TG * W + i]
                     x[b, 2] = wb[_R_XP * W + i]
                     x[b, 3] = wb[_R_XV * W + i]
                     EE[b - lo] = wb[_R_E * W + i]
+                    ntp = ctr[b, 2]
+                    for k in range(n):
+                        tpbuf[b, ntp + k] = wb[(_R_TPS + k) * W + i]
+                    ctr[b, 2] = ntp + n
+                    acc[b, _A_TPT + 1] = wb[_R_TRK * W + i]
+                    acc[b, _A_TPT + 2] = wb[(_R_TRK + 1) * W + i]
+                    acc[b, _A_TPT + 3] += n  # each point of the lane a confirmed turn
         return status
 
     @nb.njit(cache=True)
@@ -523,7 +592,8 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
             while b < hi:
                 W = min(_BW, hi - b)
                 s = block(
-                    b, W, lanes[b // _BW], act, active, x, p, dist, cfg, ctr, dd, EE, xv0, ok, lo
+                    b, W, lanes[b // _BW], act, active, x, p, dist, acc, tpbuf, cfg, ctr, dd, EE,
+                    xv0, ok, lo,
                 )  # fmt: skip
                 status = max(status, s)
                 b += W
@@ -540,14 +610,14 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
             )  # fmt: skip
         return status
 
-    step, step_parallel = block_steppers(rows, _BW)
+    step, step_parallel = block_steppers(rows, _BW, _ROOM)
 
     for k in (block, rows):
         cache_depends_on(k)
     return _StepKernels(step, step_parallel)
 
 
-for _k in (_dyn_scalar, _valve_post, _quad_point, _lockstep_bw):
+for _k in (_dyn_scalar, _valve_post, _quad_point, _lane_tracker, _lockstep_bw):
     cache_depends_on(_k)
 
 
@@ -618,6 +688,7 @@ class _ValveEngine(Engine):
                 h_T,
                 h_x,
                 1.0 if cfg.previous_action else 0.0,
+                float(tp_room(T, AXT211.max_step)),
             ]
         )
         self.x = np.zeros((B, 4))
@@ -724,11 +795,14 @@ class _ValveRigEngine(_ValveEngine):
     Every control period the rig's plant advances all plants at once, heater on for
     ``d·T`` then off (the rig's own sub-steps); KPIs, reward and the noise-free signals
     come from the rig's physical state through :func:`_valve_post`, the observation
-    from the rig's sensors.
+    from the rig's sensors. The wax-temperature tracker gets the turns of the cartridge
+    temperature over the rig's sub-steps (:class:`thermogym.rigs.base.Turns`) and its
+    value at the period's end: the turning points of every sub-step.
     """
 
     def __init__(self, B: int, cfg: ValveConfig) -> None:
         from thermogym.envs._rig import RigSensors  # the rigs load only for plant='rig'
+        from thermogym.rigs.base import Turns
 
         super().__init__(B, cfg)
         pl = self.plant
@@ -740,6 +814,11 @@ class _ValveRigEngine(_ValveEngine):
             self.tp.state_names.index(n) for n in ("T_w", "T_g", "x_v", "E")
         )
         self.xmax = float(self.spec["x_max"][0])
+        # the rig's sub-steps per period (on and off parts) bound the turns noted and the
+        # turning points a period can confirm
+        room = tp_room(self._dt, self.tp.max_step) + 1
+        self.cfgv[_ROOM] = room
+        self.turns = Turns(self._iw, B, capacity=room)
         lo, hi = self.obs_bounds()
         spans = [(float(lo[j]), float(hi[j])) for j in range(4)]
         self.rsens = RigSensors(ENV, pl.rig, _CH, spans, cfg.sensor_noise, _CH, B)
@@ -774,7 +853,7 @@ class _ValveRigEngine(_ValveEngine):
 
     def _kernel(self, mode: int) -> int:
         iw, ig, iv, ie = self._iw, self._ig, self._iv, self._ie
-        if tp_buffer_full(self.active, self.ctr, self.tpbuf):
+        if tp_buffer_full(self.active, self.ctr, self.tpbuf, int(self.cfgv[_ROOM])):
             return 2  # ST_GROW: the engine grows the turning-point buffer and calls again
         rows = np.flatnonzero(self.active)
         xr = self.xr
@@ -802,11 +881,20 @@ class _ValveRigEngine(_ValveEngine):
         u_on = np.column_stack([ones, self.dist[:, 0], self.dist[:, 1]])
         u_off = np.column_stack([0.0 * ones, self.dist[:, 0], self.dist[:, 1]])
         # heater on for d·T, then off for the rest of the period (PWM at the control period)
-        xr = self.tp.step(xr, u_on, np.where(ok, d * T, 0.0), self.spec)
-        xr = self.tp.step(xr, u_off, np.where(ok, (1.0 - d) * T, 0.0), self.spec)
+        turns = self.turns
+        turns.start(xr)
+        xr = self.tp.step(xr, u_on, np.where(ok, d * T, 0.0), self.spec, turns=turns)
+        xr = self.tp.step(xr, u_off, np.where(ok, (1.0 - d) * T, 0.0), self.spec, turns=turns)
         self.xr = xr
         E = xr[:, ie] - E0
+        hT = self.cfgv[_HT]
         for b in np.flatnonzero(ok):
+            # the wax temperature's turns within the period, then its value at the end
+            n = turns.count(int(b))
+            ntp = tp_push_all(self.acc, b, _A_TPT, turns.values[b], n, hT, self.tpbuf,
+                              self.ctr[b, C_NTP])  # fmt: skip
+            self.ctr[b, C_NTP] = tp_push_all(self.acc, b, _A_TPT, xr[b, iw : iw + 1], 1, hT,
+                                             self.tpbuf, ntp)  # fmt: skip
             _valve_post(b, 0, d[b], E[b], xv0[b], xr[b, iw], xr[b, ig], xr[b, iv],
                         self.xmax, *args)  # fmt: skip
         readings = self.rsens.read(ok, self._truth(), T, self._rngs)

@@ -4,7 +4,11 @@ Every environment accumulates these KPIs while it runs and returns them at the
 end of an episode in ``info["kpis"]``; the controller benchmark harness
 computes the same numbers from recorded trajectories with the functions here.
 The environments use the same streaming primitives (:func:`tp_update`) so that
-both give the same values on the same trajectory.
+both give the same values on the same trajectory. The AXT211 environments feed
+the wax temperature after every integration sub-step, not only at the end of a
+control period: their wax cycles equal :func:`wax_thermal_cycles` of that dense
+trajectory (a PWM period long against the wax's time constant heats and cools
+it within the period, which end-of-period samples do not see).
 
 Units are in the names (DESIGN.md, "KPIs for controller comparison"):
 
@@ -103,6 +107,7 @@ __all__ = [
     "switch_cycles",
     "time_above_limit_h",
     "tp_finish",
+    "tp_select",
     "tp_update",
     "tp_update_at",
     "turning_points",
@@ -261,6 +266,45 @@ def _tp_next(
     if v - ext >= h:
         return started, v, 1.0, conf + 1.0, ext
     return started, ext, d, conf, math.nan
+
+
+@nb.njit(cache=True, inline="always")
+def tp_select(
+    started: float, ext: float, d: float, conf: float, v: float, h: float
+) -> tuple[float, float, float, float, float, bool]:
+    """:func:`tp_update`'s step on a tracker state, branch-free (selects only).
+
+    The same new state ``(started, extreme, direction, confirmed)`` as the
+    tracker, then the value of the turning point this sample confirms and whether
+    it confirms one (the first sample confirms itself). For loops over many
+    trackers that must vectorise (the lockstep kernels of the AXT211
+    environments); the values are those of :func:`tp_update`, bit for bit.
+    """
+    first = started == 0.0
+    pos = d > 0.0
+    neg = d < 0.0
+    up = v - ext >= h
+    dn = ext - v >= h
+    higher = v > ext
+    lower = v < ext
+    peak = pos & (not higher) & dn  # a peak confirmed: moved down by h from it
+    valley = neg & (not lower) & up  # a valley confirmed
+    flat = not (pos | neg)
+    moved = (pos & higher) | (neg & lower) | peak | valley | (flat & (up | dn))
+    d1 = d
+    d1 = 1.0 if (flat & up) else d1
+    d1 = -1.0 if (flat & (not up) & dn) else d1
+    d1 = -1.0 if peak else d1
+    d1 = 1.0 if valley else d1
+    turn = peak | valley
+    return (
+        1.0,
+        v if (first | moved) else ext,
+        0.0 if first else d1,
+        conf + 1.0 if ((not first) & turn) else conf,
+        v if first else ext,
+        first | turn,
+    )
 
 
 @nb.njit(cache=True)

@@ -255,6 +255,42 @@ def advance(x, u, kU, TU, Tw_valve, p, sw, dt, max_step):  # pragma: no cover - 
         substep(x, u, kU, TU, Tw_valve, p, sw, h)
 
 
+@nb.njit(cache=True, inline="always")
+def note_turn(v: float, st, out) -> None:  # pragma: no cover - numba
+    """Keep the turns of a series fed sample by sample, in time order.
+
+    ``st = [last sample, direction of its move (1, -1, 0; 2 before any), count]``; a
+    sample that does not lie strictly between its neighbours (a local maximum or minimum,
+    or a point of a plateau) goes to ``out[count]`` once the next sample shows it. The
+    first sample (the one ``st`` starts from) and the last (pending) are never kept: the
+    caller has them. Dropped samples lie inside strictly monotone runs, which no
+    hysteresis turning-point filter needs: it finds the same turning points from the kept
+    ones and the last sample as from every sample.
+    """
+    last = st[0]
+    s = 1.0 if v > last else (-1.0 if v < last else 0.0)
+    d = st[1]
+    if d != 2.0 and (d == 0.0 or s != d):
+        n = int(st[2])
+        if n < out.shape[0]:
+            out[n] = last
+        st[2] = n + 1
+    st[0] = v
+    st[1] = s
+
+
+@nb.njit(cache=True)
+def advance_noting(x, u, kU, TU, Tw_valve, p, sw, dt, max_step, col, st, out):  # pragma: no cover
+    """:func:`advance`, and the turns of state ``col`` over its sub-steps (:func:`note_turn`)."""
+    if dt <= 0.0:
+        return
+    n = max(1, math.ceil(dt / max_step - 1e-9))
+    h = dt / n
+    for _ in range(n):
+        substep(x, u, kU, TU, Tw_valve, p, sw, h)
+        note_turn(x[col], st, out)
+
+
 @nb.njit(cache=True)
 def outputs(x, u, kU, p, sw, y):  # pragma: no cover - numba
     """P_PTC, R_PTC, T_P (cartridge), T_G (housing), x_V (valve stem)."""
@@ -271,6 +307,14 @@ def step_batch(x, u, dt, p, sw, max_step):  # pragma: no cover - numba
     """Every specimen b by dt[b] with inputs u[b] = (u, k_U, T_U); the valve water at T_U."""
     for b in range(x.shape[0]):
         advance(x[b], u[b, 0], u[b, 1], u[b, 2], u[b, 2], p[b], sw, dt[b], max_step)
+
+
+@nb.njit(cache=True)
+def step_batch_noting(x, u, dt, p, sw, max_step, col, st, out):  # pragma: no cover - numba
+    """:func:`step_batch`, noting the turns of state ``col`` of specimen b in ``st[b], out[b]``."""
+    for b in range(x.shape[0]):
+        advance_noting(x[b], u[b, 0], u[b, 1], u[b, 2], u[b, 2], p[b], sw, dt[b], max_step, col,
+                       st[b], out[b])  # fmt: skip
 
 
 @nb.njit(cache=True)

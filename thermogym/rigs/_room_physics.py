@@ -13,6 +13,7 @@ import math
 
 import numba as nb
 
+from thermogym._jitcache import module_kernels_depend_on
 from thermogym.rigs import _axt211_physics as ax
 
 N_PIPE = 8
@@ -215,6 +216,33 @@ def advance(x, u, kU, Tout, Qsol, Qocc, t, dt, pa, q, swa, swr, max_step, kind):
 
 
 @nb.njit(cache=True)
+def advance_noting(
+    x, u, kU, Tout, Qsol, Qocc, t, dt, pa, q, swa, swr, max_step, kind, col, st, out
+):  # pragma: no cover - numba
+    """:func:`advance`, and the turns of state ``col`` over its sub-steps (``ax.note_turn``)."""
+    if dt <= 0.0:
+        return
+    n = max(1, math.ceil(dt / max_step - 1e-9))
+    h = dt / n
+    xm = x.copy()
+    k1 = x.copy()
+    k2 = x.copy()
+    for j in range(n):
+        substep(x, xm, k1, k2, u, kU, Tout, Qsol, Qocc, t + j * h, pa, q, swa, swr, h, kind)
+        ax.note_turn(x[col], st, out)
+
+
+@nb.njit(cache=True)
+def step_batch_noting(
+    x, u, t, dt, pa, q, swa, swr, max_step, kind, col, st, out
+):  # pragma: no cover - numba
+    """:func:`step_batch`, noting the turns of state ``col`` of room b in ``st[b], out[b]``."""
+    for b in range(x.shape[0]):
+        advance_noting(x[b], u[b, 0], u[b, 1], u[b, 2], u[b, 3], u[b, 4], t[b], dt[b], pa[b],
+                       q[b], swa, swr, max_step, kind, col, st[b], out[b])  # fmt: skip
+
+
+@nb.njit(cache=True)
 def step_batch(x, u, t, dt, pa, q, swa, swr, max_step, kind):  # pragma: no cover - numba
     """Every room b by dt[b] with inputs u[b] = (u, k_U, T_out, Q_sol, Q_occ) from time t[b]."""
     for b in range(x.shape[0]):
@@ -255,3 +283,8 @@ def simulate_batch(x0, u, t0, dt, pa, q, swa, swr, max_step, kind, y, xs):  # pr
                 uk = u[b, k]
                 advance(x, uk[0], uk[1], uk[2], uk[3], uk[4], t, dt, pa[b], q[b], swa, swr,
                         max_step, kind)  # fmt: skip
+
+
+# the room's kernels contain the actuator's (ax.substep, ax.note_turn): their cache follows
+# _axt211_physics.py too
+module_kernels_depend_on(globals())

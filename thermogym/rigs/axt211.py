@@ -120,6 +120,7 @@ from thermogym.rigs.base import (
     RigRun,
     Specimens,
     TruePlant,
+    Turns,
     extras_table,
 )
 from thermogym.rigs.sensors import N_RANDOM, Sensor, SensorStream
@@ -418,13 +419,23 @@ class AXT211Plant(TruePlant):
         u: NDArray[np.float64],
         dt: float | NDArray[np.float64],
         specimens: Specimens,
+        turns: Turns | None = None,
     ) -> NDArray[np.float64]:
-        """Advance every specimen by ``dt`` (scalar or (B,)) with ``u`` (B, 3) held."""
+        """Advance every specimen by ``dt`` (scalar or (B,)) with ``u`` (B, 3) held.
+
+        ``turns``: note the turns of one state over the sub-steps there (:class:`Turns`).
+        """
         B = specimens.n
         xn = np.array(x, dtype=float, copy=True)
         ub = np.ascontiguousarray(np.broadcast_to(np.asarray(u, dtype=float), (B, 3)))
         d = self.substeps(dt, self.max_step, B)
-        _ph.step_batch(xn, ub, d, self.kernel_params(specimens), self._switches(), self.max_step)
+        p, sw = self.kernel_params(specimens), self._switches()
+        if turns is None:
+            _ph.step_batch(xn, ub, d, p, sw, self.max_step)
+        else:
+            _ph.step_batch_noting(
+                xn, ub, d, p, sw, self.max_step, turns.column, turns.state, turns.values
+            )
         return xn
 
     def outputs(

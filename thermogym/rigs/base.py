@@ -61,6 +61,7 @@ __all__ = [
     "RigRun",
     "Specimens",
     "TruePlant",
+    "Turns",
     "extras_table",
     "first_order_lag",
     "parse_effect",
@@ -541,6 +542,70 @@ class TruePlant(ABC):
         if not np.all(np.isfinite(d)) or np.any(d < 0):
             raise ShapeError(f"dt = {d.tolist()!r} s, expected finite values >= 0")
         return np.ascontiguousarray(d)
+
+
+class Turns:
+    """The turns of one state of every specimen over the sub-steps of a true plant's steps.
+
+    A true plant whose ``step`` takes ``turns=`` notes there, in time order, every value of
+    state ``column`` after one of its integration sub-steps that does not lie strictly
+    between the values before and after it: the local maxima and minima of the sub-step
+    series (and the points of a plateau). The series starts at :meth:`start` (that first
+    value is the caller's; so is the last, the state after the last step), and may run over
+    several steps (a heater's on and off parts). Any hysteresis turning-point filter finds
+    the same turning points from the first value, the noted ones and the last as from every
+    sub-step value, at a fraction of them.
+
+    Parameters
+    ----------
+    column : int
+        State column (of ``x``) whose turns are noted.
+    n : int
+        Number of specimens.
+    capacity : int
+        Most values noted per specimen between starts: the number of sub-steps is enough
+        (each notes at most one).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from thermogym.rigs.axt211 import AXT211Plant
+    >>> plant, spec = AXT211Plant(), AXT211Plant().nominal()
+    >>> x = plant.initial_state(spec, np.array([0.0, 24.0, 25.0]))
+    >>> col = plant.state_names.index("T_w")
+    >>> turns = Turns(col, 1, capacity=250)
+    >>> turns.start(x)
+    >>> x = plant.step(x, [1.0, 24.0, 25.0], 60.0, spec, turns=turns)   # heats: rises
+    >>> x = plant.step(x, [0.0, 24.0, 25.0], 60.0, spec, turns=turns)   # cools down
+    >>> v = turns.noted(0)
+    >>> len(v) >= 1 and bool(v.max() > x[0, col])   # the peak while it cooled
+    True
+    """
+
+    def __init__(self, column: int, n: int, capacity: int) -> None:
+        self.column = int(column)
+        self.state = np.zeros((int(n), 3))  # last value, its direction (2: none yet), count
+        self.values = np.zeros((int(n), max(int(capacity), 1)))
+
+    def start(self, x: NDArray[np.float64]) -> None:
+        """Start every specimen's series at its state row in ``x`` (the value is not noted)."""
+        self.state[:, 0] = x[:, self.column]
+        self.state[:, 1] = 2.0
+        self.state[:, 2] = 0.0
+
+    def count(self, b: int) -> int:
+        """Number of values noted for specimen ``b`` since :meth:`start`."""
+        n = int(self.state[b, 2])
+        if n > self.values.shape[1]:
+            raise ShapeError(
+                f"{n} turns noted for specimen {b}, room for {self.values.shape[1]}: "
+                "give Turns a capacity of at least the number of sub-steps"
+            )
+        return n
+
+    def noted(self, b: int) -> NDArray[np.float64]:
+        """The values noted for specimen ``b`` since :meth:`start`, in time order."""
+        return self.values[b, : self.count(b)]
 
 
 # ------------------------------------------------------------------- protocols

@@ -80,6 +80,7 @@ from thermogym.rigs.base import (
     RigRun,
     Specimens,
     TruePlant,
+    Turns,
     extras_table,
 )
 from thermogym.rigs.sensors import N_RANDOM, Sensor, SensorStream
@@ -319,15 +320,25 @@ class RoomPlant(TruePlant):
         dt: float | NDArray[np.float64],
         specimens: Specimens,
         t: float | NDArray[np.float64] = 0.0,
+        turns: Turns | None = None,
     ) -> NDArray[np.float64]:
-        """Advance every room by ``dt`` with ``u`` (B, 5) held; ``t``: time (boiler cycle) [s]."""
+        """Advance every room by ``dt`` with ``u`` (B, 5) held; ``t``: time (boiler cycle) [s].
+
+        ``turns``: note the turns of one state over the sub-steps there (:class:`Turns`).
+        """
         B = specimens.n
         xn = np.array(x, dtype=float, copy=True)
         ub = np.ascontiguousarray(np.broadcast_to(np.asarray(u, dtype=float), (B, 5)))
         d = self.substeps(dt, self.max_step, B)
         tb = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (B,)))
         pa, q = self._params(specimens)
-        _rp.step_batch(xn, ub, tb, d, pa, q, self._swa, self._swr, self.max_step, self._kind)
+        if turns is None:
+            _rp.step_batch(xn, ub, tb, d, pa, q, self._swa, self._swr, self.max_step, self._kind)
+        else:
+            _rp.step_batch_noting(
+                xn, ub, tb, d, pa, q, self._swa, self._swr, self.max_step, self._kind,
+                turns.column, turns.state, turns.values,
+            )  # fmt: skip
         return xn
 
     def outputs(
