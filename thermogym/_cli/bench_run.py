@@ -1,15 +1,6 @@
-r"""The work of ``thermogym bench`` (its options: :mod:`thermogym._cli.bench`).
+"""The work of ``thermogym bench``.
 
-``thermogym bench``: benchmark controllers on energy, lifetime and accuracy.
-
-Example::
-
-    thermogym bench --env AXT211Valve --scenario setpoint-steps \\
-        --controllers onoff,pwm,pid,mpc --seeds 3 --plant model,rig --out out/bench-valve
-
-Runs every controller × scenario × seed (× plant) with
-:func:`thermogym.controllers.harness.run_benchmark` and writes the tidy table
-(CSV, Parquet), ``summary.md`` and the figures into ``--out``.
+The command's description and its options: :mod:`thermogym._cli.bench`.
 """
 
 from __future__ import annotations

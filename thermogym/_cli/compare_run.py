@@ -1,15 +1,6 @@
-r"""The work of ``thermogym compare`` (its options: :mod:`thermogym._cli.compare`).
+"""The work of ``thermogym compare``.
 
-``thermogym compare FIT [FIT ...] --data REC``: several fitted models on one recording.
-
-As MATLAB's ``compare``: each FitResult is simulated (or predicted ``--k-step``
-samples ahead) on the recording's inputs; the fit of every output (NRMSE
-fit, in percent) is printed and drawn in one figure.
-
-Example::
-
-    thermogym compare fits/foptd.json fits/ss.json --data dataset:hair_dryer \
-        --plot compare.png
+The command's description and its options: :mod:`thermogym._cli.compare`.
 """
 
 from __future__ import annotations

@@ -1,29 +1,6 @@
-"""The work of reading recordings and ``--prepare`` (its options: :mod:`thermogym._cli.data`).
+"""Reading the recordings a command names, and its ``--prepare`` steps.
 
-Recordings into a command: files, folders, ``dataset:NAME``; CSV dialect; jitter.
-
-Every command that takes a recording reads it through :func:`load_recordings`
-and declares the reading options with :func:`add_data_options`, so the same
-things are accepted everywhere:
-
-* a CSV or Parquet file, a folder of them (its ``manifest.json`` when there
-  is one), or ``dataset:NAME`` for a shipped data set
-  (``thermogym.datasets.dataset_names()``);
-* ``--time-column NAME`` (default ``time``, else one column called ``Time``,
-  ``t``, ``time_s``, ... is taken, with a note), ``--delimiter`` and
-  ``--decimal`` (detected when unambiguous, with a note);
-* ``--prepare KEY=VALUE ...`` (where the command offers it): the preparation
-  pipeline of :func:`thermogym.identification.prepare.prepare`, its values
-  checked before any file is read;
-* values no sensor records are refused: ±inf, a single sample (NaN, an empty
-  field, is a missing sample);
-* timestamp jitter: time steps that vary by up to :data:`JITTER_TOL` around
-  their mean are resampled onto the uniform grid of the mean step (linear
-  interpolation) with a note; a recording more irregular than that is left
-  as it is for the method to refuse with its own message.
-
-Notes go to standard output as ``note: FILE: ...`` (errors alone go to
-standard error).
+The options and the recording syntax they accept: :mod:`thermogym._cli.data`.
 """
 
 from __future__ import annotations

@@ -1,10 +1,6 @@
-"""The work of ``thermogym demo`` (its options: :mod:`thermogym._cli.demo`).
+"""The work of ``thermogym demo``.
 
-``thermogym demo``: the whole loop on embedded defaults, with a report.
-
-Writes ``OUT/report.html`` (self-contained, every figure embedded),
-``OUT/report.md`` (its Markdown twin), ``OUT/fits/*.json`` and each stage's
-files; exit status 1 when a stage failed (the report says which and why).
+The command's description and its options: :mod:`thermogym._cli.demo`.
 """
 
 from __future__ import annotations

@@ -1,17 +1,6 @@
-"""The work of ``thermogym diagnose`` (its options: :mod:`thermogym._cli.diagnose`).
+"""The work of ``thermogym diagnose``.
 
-``thermogym diagnose``: locate a model mismatch and name the missing physics.
-
-::
-
-    thermogym diagnose --model MODEL [--params fit.json] --train DATA... --validate DATA...
-                       --out report.json [--html report.html] [--md report.md]
-                       [--augmented-fit fit.json] [--inputs COL,...] [--outputs COL,...]
-
-``MODEL`` is a thermogym plant (``axt211``, ``strut``, ``spindle``, ...), ``foptd``
-or ``ss:ORDER`` (with ``--inputs`` and ``--outputs`` naming the recording's
-columns). ``DATA`` is a recording file (CSV/Parquet), a folder of them, or
-``dataset:NAME`` for a shipped data set (``thermogym.datasets``).
+The command's description and its options: :mod:`thermogym._cli.diagnose`.
 """
 
 from __future__ import annotations

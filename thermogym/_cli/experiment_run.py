@@ -1,14 +1,6 @@
-"""The work of ``thermogym experiment`` (its options: :mod:`thermogym._cli.experiment`).
+"""The work of ``thermogym experiment``.
 
-``thermogym experiment RIG PROTOCOL --out DIR``: run a virtual test rig.
-
-Protocol options (``--option KEY=VALUE``) are checked against the protocol's
-own defaults before the rig runs: a list of numbers where the default is a
-list (``speeds=[4000,6000]``, a single number is taken as a one-item list), a
-number where it is a number, positive for durations, periods, speeds and
-counts. The recordings and ``manifest.json`` are written into a staged folder
-and moved into ``--out`` only when every recording was written (an
-interrupted run leaves ``--out`` as it was).
+The command's description and its options: :mod:`thermogym._cli.experiment`.
 """
 
 from __future__ import annotations

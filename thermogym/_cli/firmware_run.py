@@ -1,18 +1,6 @@
-"""The work of ``thermogym firmware`` (its options: :mod:`thermogym._cli.firmware`).
+"""The work of ``thermogym firmware``.
 
-``thermogym firmware export fit.json --out DIR``: the virtual sensor as C99 firmware.
-
-Sub-commands:
-
-``export FIT --out DIR``
-    Generate ``vs_model.h`` (matrices, dimensions, scaling, provenance with the
-    FitResult fingerprint) and copy the C sources, host test, simavr harness
-    and Makefile (:func:`thermogym.firmware.export.export`). Refuses a model
-    that does not fit the target's flash or RAM and says by how much.
-    ``--vectors DATA`` adds test vectors of the Python observer on DATA, so
-    that ``make -C DIR test`` checks the C code against Python.
-``budget FIT``
-    Print the estimated footprint on the target without writing anything.
+The command's description and its options: :mod:`thermogym._cli.firmware`.
 """
 
 from __future__ import annotations

@@ -1,24 +1,6 @@
-r"""The work of ``thermogym identify global`` (its options: :mod:`thermogym._cli.identify_global`).
+"""The work of ``thermogym identify global``.
 
-``thermogym identify greybox|montecarlo|anneal|evolution|cmaes``: the coordinator.
-
-Fits a registered thermogym model (``--model``) or an external model
-(``--external CONFIG``, a TOML/YAML file read by
-:func:`thermogym.identification.external.load_external`) to recordings and
-writes a FitResult JSON::
-
-    thermogym identify greybox --model axt211 data/axt211/*.csv --out fit.json \\
-        --free C_P --free lambda_PG --free C_G --free lambda_GU --pair T_P --pair T_G
-
-    thermogym identify montecarlo --model strut strut/strut-step-20.csv --out fit.json \\
-        --free r_motor --free r_nut --fix T_ref=20 --samples 10000 --time-limit 60
-
-The problem set-up follows paper 000 (workflow steps 2-7): free parameters
-with bounds and start values (``--free NAME=LO:HI[:START]``), values set
-manually (``--fix``), ratio parameters (``--ratio``), signal pairs with weights
-(``--pair``), the method and its stop criteria. Ctrl-C ends the search and
-writes the best result found so far to a new name (``FIT.interrupted.json``,
-never over ``--out``) and exits with status 130.
+The command's description and its options: :mod:`thermogym._cli.identify_global`.
 """
 
 from __future__ import annotations

@@ -1,23 +1,6 @@
-r"""The work of ``thermogym identify linear`` (its options: :mod:`thermogym._cli.identify_linear`).
+"""The work of ``thermogym identify linear``.
 
-``thermogym identify foptd|n4sid|rls``: linear identification from recordings.
-
-Examples
---------
-FOPTD set of the strut (paper 000, section 4.1)::
-
-    thermogym experiment strut steps --out runs
-    thermogym identify foptd --model strut runs/strut-step-20.csv \\
-        --validate runs/strut-step-25.csv runs/strut-step-30.csv --out foptd.json --plots figs
-
-N4SID of the spindle with a 2-fold cross-validated order (paper 001)::
-
-    thermogym experiment spindle run-in --out raw --option speeds=[6000]
-    thermogym identify n4sid raw/spindle-6000rpm-fold1.csv raw/spindle-6000rpm-fold2.csv \\
-        --inputs speed --outputs T_rear_bearing_A,T_front_bearing_C \\
-        --prepare ambient=T_amb valid_range=-50,300 --orders 1:12 --folds 2 --out ss.json
-
-Any CSV/Parquet recording works with ``--inputs``/``--outputs`` naming its columns.
+The command's description and its options: :mod:`thermogym._cli.identify_linear`.
 """
 
 from __future__ import annotations

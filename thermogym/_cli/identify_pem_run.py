@@ -1,24 +1,6 @@
-r"""The work of ``thermogym identify pem`` (its options: :mod:`thermogym._cli.identify_pem`).
+"""The work of ``thermogym identify pem``.
 
-``thermogym identify arx|armax|oe|bj|sopdt|ssest|auto``: prediction-error identification.
-
-Examples
---------
-The family with the best cross-validated fit (orders, delays, structure and
-operating point chosen on the training data)::
-
-    thermogym identify auto dataset:hair_dryer --inputs u --outputs y --out dryer.json
-
-An output-error model with orders by 2-fold cross-validation, or given as
-MATLAB's ``oe(data, [nb nf nk])``::
-
-    thermogym identify oe run.csv --inputs P --outputs T --out oe.json
-    thermogym identify oe run.csv --inputs P --outputs T --nb 2 --nf 2 --nk 3 --out oe.json
-
-N4SID refined by PEM, order / feedthrough / input delay by cross-validation
-(MATLAB ``ssest``)::
-
-    thermogym identify ssest run.csv --inputs q --outputs th --out ss.json
+The command's description and its options: :mod:`thermogym._cli.identify_pem`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
-"""The work of ``thermogym models`` (its options: :mod:`thermogym._cli.models`).
+"""The work of ``thermogym models``.
 
-``thermogym models``: list models, their signals and parameters.
+The command's description and its options: :mod:`thermogym._cli.models`.
 """
 
 from __future__ import annotations

@@ -1,17 +1,6 @@
-"""The work of ``thermogym resid`` (its options: :mod:`thermogym._cli.resid`).
+"""The work of ``thermogym resid``.
 
-``thermogym resid FIT --data REC``: residual tests of a fitted model.
-
-As MATLAB's ``resid``: the residuals ``y − ŷ`` of the fit on a recording are
-tested for whiteness (Ljung-Box over lags 1..M) and for independence from
-each input (cross-correlation over lags 0..M, bounds widened for coloured
-signals); the figure shows both with their confidence bounds. Residuals that
-are coloured but independent of the inputs call for more dynamics or a noise
-model; residuals correlated with an input say its effect is mis-modelled.
-
-Example::
-
-    thermogym resid fits/foptd.json --data dataset:hair_dryer --plot resid.png
+The command's description and its options: :mod:`thermogym._cli.resid`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
-"""The work of ``thermogym simulate`` (its options: :mod:`thermogym._cli.simulate`).
+"""The work of ``thermogym simulate``.
 
-``thermogym simulate [MODEL] --inputs FILE --out FILE``: simulate on recorded inputs.
+The command's description and its options: :mod:`thermogym._cli.simulate`.
 """
 
 from __future__ import annotations

@@ -1,16 +1,6 @@
-"""The work of ``thermogym virtual-sensor`` (its options: :mod:`thermogym._cli.virtual_sensor`).
+"""The work of ``thermogym virtual-sensor``.
 
-``thermogym virtual-sensor --fit fit.json DATA --out estimates.csv``: estimate hidden signals.
-
-Runs the Kalman virtual sensor of :mod:`thermogym.estimation` on a
-recording: the identified state-space model of ``--fit`` (``ss``, e.g. from
-``thermogym identify n4sid``), the exogenous channels and the ``--measured``
-outputs read from DATA, the other outputs estimated. Writes a recording with
-the estimates, their standard deviations (``<name>_std``) and the observer
-status; when DATA also holds the hidden signals (a run-in rig with internal
-RTDs) it prints the estimation RMSE, fit (NRMSE fit, paper 001 eq 5, in %) and the NEES
-consistency against them. ``--plot`` draws measured, true and estimated
-temperatures.
+The command's description and its options: :mod:`thermogym._cli.virtual_sensor`.
 """
 
 from __future__ import annotations
