@@ -81,7 +81,9 @@ energy is integrated by the trapezoidal rule on intervals of at most 10 s.
 
 Version History
 ---------------
-* v0: initial release.
+* v0: initial release. Revised in place (observations, rewards and every other KPI
+  bit-identical): the wax-cycle and Miner-damage KPIs count the turning points of every
+  integration sub-step, not only of period ends.
 """
 
 from __future__ import annotations
