@@ -72,6 +72,7 @@ class Context:
     regimes: list[dict[str, Any]] = field(default_factory=list)
     assumed_celsius: bool = False
     features: dict[str, Any] = field(default_factory=dict)
+    _memo: dict[tuple[str, ...], Any] = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------ signals
     @property
@@ -116,9 +117,22 @@ class Context:
 
     @property
     def ambient(self) -> str | None:
-        """The first exogenous temperature (the ambient port of loop terms), if any."""
+        """The surroundings' temperature (the ambient port of loop terms), if any.
+
+        The first exogenous temperature that no input's conductance acts across
+        (:meth:`sets_conductance`: a coolant inlet behind a valve is not the
+        surroundings), else the first exogenous temperature.
+        """
         t = self.temperature_inputs
-        return t[0] if t else None
+        if not t:
+            return None
+        outs = self.temperature_outputs or list(self.outputs)
+        if outs:
+            across = {self.sets_conductance(i, outs[0]) for i in self.inputs}
+            free = [x for x in t if x not in across]
+            if free:
+                return free[0]
+        return t[0]
 
     def column(self, name: str, train_only: bool = False) -> list[NDArray[np.float64]]:
         """An exogenous signal per recording."""
@@ -185,18 +199,21 @@ class Context:
         """Nominal value of a parameter."""
         return float(self.theta[self.model.param_index(name)])
 
-    def port_gain(self, port: str, output: str) -> float:
+    def port_gain(self, port: str, output: str, u: NDArray[np.float64] | None = None) -> float:
         """Steady-state gain of the nominal model from an exogenous signal to an output.
 
         Measured on the first training recording: the mean output change over
-        its second half when ``port`` is raised by a small step throughout.
+        its second half when ``port`` is raised by a small step throughout
+        (1 % of its span in that recording). ``u``, shape (T, n_u), replaces
+        the recording's exogenous signals (the gain at another operating point).
         """
         i = self.is_train.index(True)
-        u = self.u[i]
         j = list(self.exogenous).index(port)
-        span = float(np.ptp(u[:, j])) or max(abs(float(np.mean(u[:, j]))), 1.0)
+        col = self.u[i][:, j]
+        span = float(np.ptp(col)) or max(abs(float(np.mean(col))), 1.0)
         du = 0.01 * span
-        uu = np.stack([u, u])
+        base = self.u[i] if u is None else u
+        uu = np.stack([base, base])
         uu[1, :, j] += du
         th = np.repeat(self.theta[None], 2, axis=0)
         try:
@@ -205,9 +222,97 @@ class Context:
         except Exception:
             return math.nan
         k = self.model.output_names.index(output)
-        half = u.shape[0] // 2
+        half = base.shape[0] // 2
         d = sim.outputs[1, half:, k] - sim.outputs[0, half:, k]
         return float(np.mean(d) / du) if np.isfinite(d).all() else math.nan
+
+    def response_time(self, port: str, output: str) -> float:
+        """Seconds the nominal model's output takes to make half its response to a step of ``port``.
+
+        The step (1 % of the port's span) is applied a quarter into the first
+        training recording; infinite when the output has not made half the
+        change it shows over the recording's last eighth, or shows none.
+        """
+        key = ("response_time", port, output)
+        if key in self._memo:
+            return float(self._memo[key])
+        i = self.is_train.index(True)
+        u = self.u[i]
+        j = list(self.exogenous).index(port)
+        span = float(np.ptp(u[:, j])) or max(abs(float(np.mean(u[:, j]))), 1.0)
+        n = u.shape[0]
+        n0 = n // 4
+        uu = np.stack([u, u])
+        uu[1, n0:, j] += 0.01 * span
+        th = np.repeat(self.theta[None], 2, axis=0)
+        t = math.inf
+        try:
+            x0 = self.model.initial_state(th, uu[:, 0])
+            sim = self.model.simulate(uu, self.dt[i], th, x0, strict=False)
+            k = self.model.output_names.index(output)
+            d = sim.outputs[1, n0:, k] - sim.outputs[0, n0:, k]
+            final = float(np.mean(d[-max(n // 8, 1) :]))
+            if np.isfinite(d).all() and abs(final) > 0:
+                hit = np.nonzero(np.abs(d) >= 0.5 * abs(final))[0]
+                if hit.size:
+                    t = float(hit[0]) * self.dt[i]
+        except Exception:
+            t = math.inf
+        self._memo[key] = t
+        return t
+
+    def sets_conductance(self, name: str, output: str) -> str | None:
+        """The temperature input across which ``name`` sets a conductance, if any.
+
+        An input that sets a conductance (a coolant flow through a coil, a fan's
+        speed) moves heat only across a temperature difference: in a plant held
+        isothermal (every temperature input at one value, the other manipulated
+        inputs at zero) it does nothing, whereas a power input (a heater, a
+        lamp) still heats. So ``name`` sets a conductance when its gain there is
+        below a tenth of its gain on the training data. Returns the far side of
+        the conductance, else None: the temperature input that, raised by 5 K
+        alone in the isothermal plant, makes the input pull the output up most
+        (more conductance to a warmer side warms the output).
+        """
+        key = (name, output)
+        if key not in self._memo:
+            self._memo[key] = self._sets_conductance(name, output)
+        return self._memo[key]
+
+    def _sets_conductance(self, name: str, output: str) -> str | None:
+        temps = [t for t in self.temperature_inputs if t in self.exogenous]
+        if name not in self.inputs or not temps:
+            return None
+        g0 = self.port_gain(name, output)
+        if not math.isfinite(g0) or abs(g0) < 1e-12:
+            return None
+        i = self.is_train.index(True)
+        k = self.outputs.index(output)
+        level = float(np.nanmean(self.y[i][:, k]))
+        iso = self.u[i].copy()
+        for c, n in enumerate(self.exogenous):
+            if n in temps:
+                iso[:, c] = level
+            elif n in self.inputs and n != name:
+                iso[:, c] = 0.0
+        g_iso = self.port_gain(name, output, iso)
+        if not math.isfinite(g_iso) or abs(g_iso) > _CONDUCTANCE_REL * abs(g0):
+            return None
+        pull = []
+        for t in temps:
+            sh = iso.copy()
+            sh[:, list(self.exogenous).index(t)] += _CONDUCTANCE_SHIFT_K
+            g1 = self.port_gain(name, output, sh)
+            pull.append(g1 if math.isfinite(g1) else -math.inf)
+        best = int(np.argmax(pull))
+        return temps[best] if pull[best] > 0 else None
+
+
+#: Marks of an input that sets a conductance (:meth:`Context.sets_conductance`): its gain
+#: in the isothermal plant below this share of its gain on the data, and the shift of a
+#: temperature input that tells across which temperature it acts.
+_CONDUCTANCE_REL = 0.1
+_CONDUCTANCE_SHIFT_K = 5.0
 
 
 # ------------------------------------------------------------------ signatures

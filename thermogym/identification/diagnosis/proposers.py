@@ -71,17 +71,42 @@ def _targets(ctx: Context, temperature: bool = False) -> list[str]:
 def _port(ctx: Context, output: str) -> tuple[str, float] | None:
     """Port of a loop term on ``output`` and the scale from kelvin to the port's unit.
 
-    The ambient (the first exogenous temperature) when a kelvin there moves the
-    output by at least 0.2 K at steady state (a direct thermal path), else the
-    manipulated input with the largest gain.
+    A loop term is a heat flow at the output's node, so it enters where the
+    model's response is that node's own: the ambient (the surroundings'
+    temperature) when a kelvin there moves the output by at least 0.2 K at
+    steady state (a direct thermal path), else the manipulated input with the
+    largest effect; the input instead of the ambient when the model's response
+    to the ambient takes more than twice as long (a generic model whose ambient
+    channel has a dead time or a lag of its own). Neither may act through a
+    conductance an input sets (a coolant inlet behind a valve, the valve
+    itself): a heat flow entered there would scale with that input.
     """
+    key = ("port", output)
+    if key not in ctx._memo:
+        ctx._memo[key] = _choose_port(ctx, output)
+    return ctx._memo[key]
+
+
+def _choose_port(ctx: Context, output: str) -> tuple[str, float] | None:
+    across = {ctx.sets_conductance(i, output) for i in ctx.inputs}
+    best = _heat_input(ctx, output)
     amb = ctx.ambient
-    if amb is not None:
+    if amb is not None and amb not in across:
         g = ctx.port_gain(amb, output)
         if math.isfinite(g) and g >= 0.2:
-            return amb, 1.0 / g
+            if best is None or ctx.response_time(amb, output) <= 2.0 * ctx.response_time(
+                best[0], output
+            ):
+                return amb, 1.0 / g
+    return best
+
+
+def _heat_input(ctx: Context, output: str) -> tuple[str, float] | None:
+    """The manipulated input that moves ``output`` most and sets no conductance, with 1/gain."""
     best: tuple[str, float] | None = None
     for i in ctx.inputs:
+        if ctx.sets_conductance(i, output) is not None:
+            continue
         g = ctx.port_gain(i, output)
         if math.isfinite(g) and abs(g) > 1e-9:
             rel = abs(g) * ctx.u_ref(i)
@@ -89,8 +114,7 @@ def _port(ctx: Context, output: str) -> tuple[str, float] | None:
                 best = (i, rel)
     if best is None:
         return None
-    g = ctx.port_gain(best[0], output)
-    return best[0], 1.0 / g
+    return best[0], 1.0 / ctx.port_gain(best[0], output)
 
 
 def _loop_spec(ctx: Context, output: str, **spec: Any) -> dict[str, Any] | None:
@@ -288,6 +312,40 @@ def _input_nonlinearity(ctx: Context) -> list[Candidate]:
                     {f"pwl{k}_{i}": (0.3, 3.0) for k in range(1, 4)},
                 )
             )
+        across = _conductance_of(ctx, i)
+        if across is not None:
+            # ``i`` sets a conductance (a flow through a coil, a fan): its effect scales
+            # with a temperature difference. A concave power law of it is a heat-transfer
+            # coefficient growing less than in proportion with the flow (Dittus-Boelter,
+            # UA ∝ ṁ^0.8; a coil's effectiveness falling as the flow rises), a physics
+            # every coil has; a convex one is the actuator's characteristic (an
+            # equal-percentage valve). The data cannot tell a concave valve
+            # characteristic from the former without a flow measurement: the report's
+            # alternatives say so.
+            forms[0] = (
+                "power",
+                "power law (convex)",
+                {"bounds": {"alpha": [1.0, 3.0]}},
+                {f"alpha_{i}": (1.05, 2.5)},
+            )
+            spec = {
+                "effect": "input_nonlinearity",
+                "signal": i,
+                "form": "power",
+                "u_ref": ur,
+                "bounds": {"alpha": [0.2, 1.0]},
+            }
+            out.append(
+                Candidate(
+                    "input_dependent_heat_transfer",
+                    f"conductance set by {i} ∝ {i}^α, α < 1 (across {across})",
+                    i,
+                    (spec,),
+                    starts=_starts({f"alpha_{i}": (0.4, 0.95)}, 2),
+                    evidence=ev + f"; {i} acts across the {across} temperature difference",
+                    prior=level,
+                )
+            )
         for form, words, extra, box in forms:
             spec = {"effect": "input_nonlinearity", "signal": i, "form": form, "u_ref": ur, **extra}
             out.append(
@@ -302,6 +360,13 @@ def _input_nonlinearity(ctx: Context) -> list[Candidate]:
                 )
             )
     return out
+
+
+def _conductance_of(ctx: Context, name: str) -> str | None:
+    """The temperature across which input ``name`` sets a conductance on the first target."""
+    for o in _targets(ctx, temperature=True)[:1]:
+        return ctx.sets_conductance(name, o)
+    return None
 
 
 def _backlash(ctx: Context) -> list[Candidate]:
@@ -378,12 +443,24 @@ def _supply_variation(ctx: Context) -> list[Candidate]:
 
 
 def _unmeasured_disturbance(ctx: Context) -> list[Candidate]:
-    feats = ctx.features
+    """The disturbance at the loop-term port and, where that is the ambient, at the heat input.
+
+    The ambient's path reaches every node in fixed proportions; a heat flow into
+    one zone (a party wall, occupants) enters where the heat input does.
+    """
     o = _targets(ctx)[0]
     p = _port(ctx, o)
     if p is None:
         return []
-    port, scale = p
+    out = _disturbance_at(ctx, o, *p)
+    q = _heat_input(ctx, o)
+    if q is not None and q[0] != p[0]:
+        out += _disturbance_at(ctx, o, *q)
+    return out
+
+
+def _disturbance_at(ctx: Context, o: str, port: str, scale: float) -> list[Candidate]:
+    feats = ctx.features
     amp = 10.0 * ctx.scale[o] * abs(scale)
     dur = ctx.duration
     dt = ctx.dt_min
