@@ -69,6 +69,8 @@ _SPECS = [
     # a hard limit of the input; a course added to the reading (the diagnosis' course baseline)
     ("input_nonlinearity", "u", {"form": "limit", "u_max": 1.5}),
     ("sensor_drift", "y2", {"form": "wander", "span": 400.0, "segments": 3}),
+    # a conductance an input sets, fouling at a steady pace (one rate for all recordings)
+    ("supply_variation", "u", {"form": "ramp"}),
 ]
 #: legacy static maps read the current input, which a sensor lag of the next sample cannot
 #: know when stepping: they are left out of the combination (each is checked alone)
@@ -118,6 +120,7 @@ _VALUES = {
     "lim_u": 1.1,
     "wander_k1_y2": 0.4,
     "wander_k3_y2": -0.2,
+    "sv_ramp_u": -0.3,
 }
 
 

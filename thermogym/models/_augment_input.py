@@ -190,7 +190,12 @@ class _DisturbanceForm(_AddsCourse, _Aug, _CourseMixin):
 
 
 class _Supply(_Aug, _CourseMixin):
-    """The supply behind an input wanders: ``u → u (1 + s(t))``, per recording."""
+    """The supply behind an input wanders: ``u → u (1 + s(t))``.
+
+    ``steps`` and ``smooth``: a course per recording; ``ramp``: ``s(t) = r t``
+    from each recording's start with one rate ``r`` [1/h] for all (the
+    conductance a valve sets fouling at a steady pace).
+    """
 
     effect = "supply_variation"
     state_suffixes = ("t",)
@@ -199,8 +204,22 @@ class _Supply(_Aug, _CourseMixin):
     def __init__(self, spec, base):
         super().__init__(spec, base)
         self.form = str(spec.get("form", "steps"))
-        if self.form not in ("steps", "smooth"):
-            raise ConfigError(f"supply_variation form {self.form!r}; forms are steps, smooth")
+        if self.form not in ("steps", "smooth", "ramp"):
+            raise ConfigError(f"supply_variation form {self.form!r}; forms are steps, smooth, ramp")
+        if self.form == "ramp":
+            lo, hi = _bounds(spec, "rate", (-0.5, 0.5))
+            self.params = [
+                _param(
+                    f"sv_ramp_{self.signal}",
+                    0.0,
+                    lo,
+                    hi,
+                    "1/h",
+                    f"relative change per hour of the supply behind {self.signal} since the "
+                    "recording's start",
+                )
+            ]
+            return
         self._setup_course(spec, self.form == "smooth")
         lo, hi = _bounds(spec, "relative", (-0.6, 0.6))
         self.params = [
@@ -217,14 +236,19 @@ class _Supply(_Aug, _CourseMixin):
         ]
 
     def course(self, p, t):
+        return None if self.form == "ramp" else self._factor(p, t)
+
+    def _factor(self, p, t):
+        if self.form == "ramp":
+            return p[:, 0:1] * t / 3600.0
         return _course(p, t, self.span, self.smooth)
 
     def apply(self, arr, u, p, s0, dt):
         t = s0[:, 0:1] + dt * np.arange(arr.shape[1])[None, :]
-        arr[:, :, self.col] *= 1.0 + _course(p, t, self.span, self.smooth)
+        arr[:, :, self.col] *= 1.0 + self._factor(p, t)
 
     def now(self, v, u, p, s, dt):
-        return v * (1.0 + _course(p, s[:, 0:1], self.span, self.smooth)[:, 0])
+        return v * (1.0 + self._factor(p, s[:, 0:1])[:, 0])
 
     def advance(self, v, u, p, s, dt, v_next=None):
         return s + dt

@@ -99,6 +99,7 @@ KINDS: dict[tuple[str, str], type[_Aug]] = {
     ("unmeasured_disturbance", "smooth"): _DisturbanceForm,
     ("supply_variation", "steps"): _Supply,
     ("supply_variation", "smooth"): _Supply,
+    ("supply_variation", "ramp"): _Supply,
     ("supply_variation", ""): _Supply,
     ("input_nonlinearity", ""): _InputMap,
     ("input_nonlinearity", "power"): _InputMap,

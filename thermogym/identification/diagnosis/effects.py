@@ -255,9 +255,11 @@ def candidates_for(ctx: Context, effects: list[str] | None = None) -> list[Candi
     if not ctx.features:
         ctx.features = signatures(ctx)
     out: list[Candidate] = []
-    for name, eff in CATALOGUE.items():
-        if effects is not None and name not in effects:
-            continue
+    for eff in CATALOGUE.values():
         out += eff.propose(ctx)
+    # a proposer may name a candidate by the physics the model's structure gives it (a
+    # course on a valve is a conductance changing over time): filter on the name it got
+    if effects is not None:
+        out = [c for c in out if c.effect in effects]
     out.sort(key=lambda c: -c.prior)
     return out

@@ -417,28 +417,49 @@ def _backlash(ctx: Context) -> list[Candidate]:
 
 
 def _supply_variation(ctx: Context) -> list[Candidate]:
+    """A course multiplying an input's effect within each run.
+
+    On a power input that is the supply (mains voltage, a source resistance);
+    on an input that sets a conductance (:meth:`.Context.sets_conductance`: a
+    valve on a coil) it is that conductance changing over time (fouling, an air
+    lock, a pump losing head): named ``time_varying_parameter``.
+    """
     out = []
     on = max((f.get("onoff", 0.0) for f in _fo(ctx).values()), default=0.0)
     for i in _manipulated(ctx):
-        for form, words in (("steps", "steps"), ("smooth", "smooth wander")):
-            spec = {
-                "effect": "supply_variation",
-                "signal": i,
-                "form": form,
-                "span": ctx.span,
-                "segments": 6,
-            }
-            out.append(
-                Candidate(
-                    "supply_variation",
-                    words,
-                    i,
-                    (spec,),
-                    evidence=f"residual changes with {i} on and off (η² up to {on:.2f}) and "
-                    "over a run",
-                    prior=0.5 * on,
+        across = _conductance_of(ctx, i)
+        forms = [("steps", "steps"), ("smooth", "smooth wander")]
+        if across is not None:
+            forms.append(("ramp", "ramp"))
+        for form, words in forms:
+            spec: dict[str, Any] = {"effect": "supply_variation", "signal": i, "form": form}
+            if form != "ramp":
+                spec.update(span=ctx.span, segments=6)
+            if across is None:
+                out.append(
+                    Candidate(
+                        "supply_variation",
+                        words,
+                        i,
+                        (spec,),
+                        evidence=f"residual changes with {i} on and off (η² up to {on:.2f}) "
+                        "and over a run",
+                        prior=0.5 * on,
+                    )
                 )
-            )
+            else:
+                out.append(
+                    Candidate(
+                        "time_varying_parameter",
+                        f"conductance set by {i} (across {across}): "
+                        + {"steps": "steps", "smooth": "smooth random walk"}.get(form, form),
+                        i,
+                        (spec,),
+                        starts=_starts({f"sv_ramp_{i}": (-0.1, 0.1)}, 2) if form == "ramp" else (),
+                        evidence=f"residual changes with {i} and over a run",
+                        prior=0.5 * on,
+                    )
+                )
     return out
 
 
