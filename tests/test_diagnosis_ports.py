@@ -156,3 +156,73 @@ def test_a_generic_model_whose_ambient_channel_lags_takes_loop_terms_at_the_inpu
     th[m.param_index("T_T__T_amb")] = 180.0
     ctx2 = _context(m, th, u, y.outputs[0], dt)
     assert proposers._port(ctx2, "T")[0] == "T_amb"
+
+
+class TwoZones(Model):
+    """A heater in zone 1 of two coupled zones, the outdoor air at both (Euler)."""
+
+    name = "user_two_zones"
+    version = "1"
+
+    def __init__(self) -> None:
+        params = [
+            Parameter("C1", 1.4e7, 1e6, 1e8, "J/K", "zone 1 heat capacity", "design"),
+            Parameter("C2", 9.0e6, 1e6, 1e8, "J/K", "zone 2 heat capacity", "design"),
+            Parameter("UA1", 95.0, 10.0, 500.0, "W/K", "zone 1 envelope", "design"),
+            Parameter("UA2", 60.0, 10.0, 500.0, "W/K", "zone 2 envelope", "design"),
+            Parameter("K", 250.0, 10.0, 1000.0, "W/K", "between the zones", "design"),
+            Parameter("P", 5000.0, 100.0, 2e4, "W", "heater at full command", "design"),
+        ]
+        signals = [
+            Signal("h", "input", "1", "heater command"),
+            Signal("T_out", "disturbance", "°C", "outdoor air"),
+            Signal("T1", "output", "°C", "zone 1"),
+            Signal("T2", "output", "°C", "zone 2"),
+        ]
+        super().__init__(signals, params, ["T1", "T2"])
+
+    def _validate_theta(self, theta):
+        self._require_positive(theta, self.param_names)
+
+    def initial_state(self, theta, u0):
+        _, _, U1, U2, K, P = theta.T
+        q, To = P * u0[:, 0], u0[:, 1]
+        det = (U1 + K) * (U2 + K) - K * K
+        T1 = To + q * (U2 + K) / det
+        T2 = To + q * K / det
+        return np.column_stack([T1, T2])
+
+    def _simulate(self, theta, u, dt, x0, return_states):
+        C1, C2, U1, U2, K, P = (theta[:, i] for i in range(6))
+        y = np.empty((theta.shape[0], u.shape[1], 2))
+        x = x0.copy()
+        sub = 10
+        for k in range(u.shape[1]):
+            y[:, k] = x
+            q, To = P * u[:, k, 0], u[:, k, 1]
+            for _ in range(sub):
+                f = K * (x[:, 0] - x[:, 1])
+                d1 = (q - U1 * (x[:, 0] - To) - f) / C1
+                d2 = (f - U2 * (x[:, 1] - To)) / C2
+                x = x + dt / sub * np.column_stack([d1, d2])
+        return y, (y.copy() if return_states else None)
+
+
+def test_heat_flows_at_a_zone_enter_where_they_reach_that_zone_first():
+    rng = np.random.default_rng(2)
+    n, dt = 1008, 600.0
+    h = np.repeat(rng.uniform(0.1, 0.9, n // 24), 24)
+    t_out = 3.0 + 4.0 * np.sin(2 * np.pi * np.arange(n) * dt / 86400.0)
+    u = np.column_stack([h, t_out])
+    m = TwoZones()
+    th = m.nominal[None]
+    y = m.simulate(u[None], dt, th, m.initial_state(th, u[None, 0]), strict=False).outputs[0]
+    ctx = _context(m, m.nominal, u, y, dt)
+    # the heater warms zone 1 before zone 2; the outdoor air reaches both at once
+    assert ctx.locality("h", "T1") > 10.0
+    assert ctx.locality("T_out", "T1") < 2.0
+    assert proposers._port(ctx, "T1")[0] == "h"
+    # zone 2 has no heater of its own: its heat flows enter through the outdoor air
+    assert proposers._port(ctx, "T2")[0] == "T_out"
+    # a disturbance on zone 1 is tried at both
+    assert {c.target for c in proposers._unmeasured_disturbance(ctx)} >= {"h", "T_out"}

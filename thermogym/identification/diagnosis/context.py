@@ -226,40 +226,74 @@ class Context:
         d = sim.outputs[1, half:, k] - sim.outputs[0, half:, k]
         return float(np.mean(d) / du) if np.isfinite(d).all() else math.nan
 
+    def _step_response(self, port: str) -> NDArray[np.float64] | None:
+        """Change of every model output after a step of ``port``, shape (T', n_out).
+
+        The step (1 % of the port's span) is applied a quarter into the first
+        training recording; None when the model cannot be simulated so.
+        """
+        key = ("step", port)
+        if key not in self._memo:
+            i = self.is_train.index(True)
+            u = self.u[i]
+            j = list(self.exogenous).index(port)
+            span = float(np.ptp(u[:, j])) or max(abs(float(np.mean(u[:, j]))), 1.0)
+            n0 = u.shape[0] // 4
+            uu = np.stack([u, u])
+            uu[1, n0:, j] += 0.01 * span
+            th = np.repeat(self.theta[None], 2, axis=0)
+            d: NDArray[np.float64] | None = None
+            try:
+                x0 = self.model.initial_state(th, uu[:, 0])
+                sim = self.model.simulate(uu, self.dt[i], th, x0, strict=False)
+                d = sim.outputs[1, n0:] - sim.outputs[0, n0:]
+                if not np.isfinite(d).all():
+                    d = None
+            except Exception:
+                d = None
+            self._memo[key] = d
+        return self._memo[key]
+
     def response_time(self, port: str, output: str) -> float:
         """Seconds the nominal model's output takes to make half its response to a step of ``port``.
 
-        The step (1 % of the port's span) is applied a quarter into the first
-        training recording; infinite when the output has not made half the
-        change it shows over the recording's last eighth, or shows none.
+        Infinite when the output has not made half the change it shows over the
+        first training recording's last eighth, or shows none
+        (:meth:`_step_response`).
         """
-        key = ("response_time", port, output)
-        if key in self._memo:
-            return float(self._memo[key])
-        i = self.is_train.index(True)
-        u = self.u[i]
-        j = list(self.exogenous).index(port)
-        span = float(np.ptp(u[:, j])) or max(abs(float(np.mean(u[:, j]))), 1.0)
-        n = u.shape[0]
-        n0 = n // 4
-        uu = np.stack([u, u])
-        uu[1, n0:, j] += 0.01 * span
-        th = np.repeat(self.theta[None], 2, axis=0)
-        t = math.inf
-        try:
-            x0 = self.model.initial_state(th, uu[:, 0])
-            sim = self.model.simulate(uu, self.dt[i], th, x0, strict=False)
-            k = self.model.output_names.index(output)
-            d = sim.outputs[1, n0:, k] - sim.outputs[0, n0:, k]
-            final = float(np.mean(d[-max(n // 8, 1) :]))
-            if np.isfinite(d).all() and abs(final) > 0:
-                hit = np.nonzero(np.abs(d) >= 0.5 * abs(final))[0]
-                if hit.size:
-                    t = float(hit[0]) * self.dt[i]
-        except Exception:
-            t = math.inf
-        self._memo[key] = t
-        return t
+        d = self._step_response(port)
+        if d is None:
+            return math.inf
+        x = d[:, self.model.output_names.index(output)]
+        final = float(np.mean(x[-max(x.size // 6, 1) :]))
+        if abs(final) == 0:
+            return math.inf
+        hit = np.nonzero(np.abs(x) >= 0.5 * abs(final))[0]
+        return float(hit[0]) * self.dt[self.is_train.index(True)] if hit.size else math.inf
+
+    def locality(self, port: str, output: str) -> float:
+        """How much more ``output`` than any other output a step of ``port`` moves at first.
+
+        The ratio of the first clear changes (the first sample where some
+        output has moved by a thousandth of its largest change): a heat flow
+        entered at ``output``'s own node moves it before heat reaches the other
+        nodes; one entered through the surroundings moves every zone at once.
+        Infinite with one compared output; 0 when the output does not move.
+        """
+        others = [o for o in self.outputs if o != output]
+        if not others:
+            return math.inf
+        d = self._step_response(port)
+        if d is None:
+            return 0.0
+        cols = [self.model.output_names.index(o) for o in (output, *others)]
+        a = np.abs(d[:, cols])
+        peak = float(a.max())
+        if peak == 0:
+            return 0.0
+        first = int(np.nonzero(a.max(axis=1) > 1e-3 * peak)[0][0])
+        other = float(a[first, 1:].max())
+        return float(a[first, 0] / other) if other > 0 else math.inf
 
     def sets_conductance(self, name: str, output: str) -> str | None:
         """The temperature input across which ``name`` sets a conductance, if any.

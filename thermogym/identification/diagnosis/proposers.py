@@ -75,8 +75,11 @@ def _port(ctx: Context, output: str) -> tuple[str, float] | None:
     model's response is that node's own: the ambient (the surroundings'
     temperature) when a kelvin there moves the output by at least 0.2 K at
     steady state (a direct thermal path), else the manipulated input with the
-    largest effect; the input instead of the ambient when the model's response
-    to the ambient takes more than twice as long (a generic model whose ambient
+    largest effect. The input instead of the ambient when it reaches this
+    output's node before the others by more than twice the ambient's margin
+    (:meth:`.Context.locality`: a heater in one zone of a house whose every
+    zone the outdoor air reaches at once), or when the model's response to the
+    ambient takes more than twice as long (a generic model whose ambient
     channel has a dead time or a lag of its own). Neither may act through a
     conductance an input sets (a coolant inlet behind a valve, the valve
     itself): a heat flow entered there would scale with that input.
@@ -88,17 +91,28 @@ def _port(ctx: Context, output: str) -> tuple[str, float] | None:
 
 
 def _choose_port(ctx: Context, output: str) -> tuple[str, float] | None:
-    across = {ctx.sets_conductance(i, output) for i in ctx.inputs}
     best = _heat_input(ctx, output)
-    amb = ctx.ambient
-    if amb is not None and amb not in across:
-        g = ctx.port_gain(amb, output)
-        if math.isfinite(g) and g >= 0.2:
-            if best is None or ctx.response_time(amb, output) <= 2.0 * ctx.response_time(
-                best[0], output
-            ):
-                return amb, 1.0 / g
+    amb = _ambient_port(ctx, output)
+    if amb is None:
+        return best
+    if best is None:
+        return amb
+    # several zones: the port that reaches this output's node first
+    la, li = ctx.locality(amb[0], output), ctx.locality(best[0], output)
+    if math.isfinite(li) and li > 2.0 * la:
+        return best
+    if ctx.response_time(amb[0], output) <= 2.0 * ctx.response_time(best[0], output):
+        return amb
     return best
+
+
+def _ambient_port(ctx: Context, output: str) -> tuple[str, float] | None:
+    """The surroundings as a port, with 1/gain: a direct path (gain ≥ 0.2) behind no valve."""
+    amb = ctx.ambient
+    if amb is None or amb in {ctx.sets_conductance(i, output) for i in ctx.inputs}:
+        return None
+    g = ctx.port_gain(amb, output)
+    return (amb, 1.0 / g) if math.isfinite(g) and g >= 0.2 else None
 
 
 def _heat_input(ctx: Context, output: str) -> tuple[str, float] | None:
@@ -464,19 +478,19 @@ def _supply_variation(ctx: Context) -> list[Candidate]:
 
 
 def _unmeasured_disturbance(ctx: Context) -> list[Candidate]:
-    """The disturbance at the loop-term port and, where that is the ambient, at the heat input.
+    """The disturbance at the loop-term port, at the heat input and at the surroundings.
 
-    The ambient's path reaches every node in fixed proportions; a heat flow into
-    one zone (a party wall, occupants) enters where the heat input does.
+    The ambient's path reaches every node in fixed proportions (the outdoor air,
+    the room around a plate); a heat flow into one zone (a party wall,
+    occupants) enters where the heat input does.
     """
     o = _targets(ctx)[0]
-    p = _port(ctx, o)
-    if p is None:
-        return []
-    out = _disturbance_at(ctx, o, *p)
-    q = _heat_input(ctx, o)
-    if q is not None and q[0] != p[0]:
-        out += _disturbance_at(ctx, o, *q)
+    out: list[Candidate] = []
+    seen: set[str] = set()
+    for p in (_port(ctx, o), _heat_input(ctx, o), _ambient_port(ctx, o)):
+        if p is not None and p[0] not in seen:
+            seen.add(p[0])
+            out += _disturbance_at(ctx, o, *p)
     return out
 
 
