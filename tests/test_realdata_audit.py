@@ -268,3 +268,19 @@ def test_bad_values_of_the_new_options_are_named(tmp_path, capsys, method, extra
     err = capsys.readouterr().err
     assert match in err and err.count("\n") == 1
     assert not (tmp_path / "fit.json").exists()
+
+
+def test_n4sid_about_the_rest_takes_a_step_test_logged_from_the_step_on(tmp_path, capsys):
+    # a step test logged from the step on (the heater on throughout, TCLab's step run): about
+    # the rest the input is a step from zero, as foptd, sopdt and arx take it; with --folds the
+    # halves hold no input move, so the order comes from the singular values and it says so
+    rec = lag_recording(8, n=300)
+    held = Recording(rec.time, {"P": np.full(300, 6.0), "T": Y_REST + lfilter([0, 3.0], [1, -0.9],
+                     np.ones(300))}, units=dict(rec.units), roles=dict(rec.roles),
+                     experiment_id="step")  # fmt: skip
+    fit = identify(tmp_path, "n4sid", held, "--operating-point", "rest", "--folds", "2",
+                   "--orders", "1:3", "--decimate", "1")  # fmt: skip
+    assert fit.settings["operating_point"]["mode"] == "rest"
+    assert "cv_fallback" in codes(fit)
+    assert "do not move in two separate parts" in capsys.readouterr().err
+    assert fit.metrics["train"]["mnrmse"] > 0.99

@@ -304,7 +304,10 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     notes: list[Any] = []
     folds = None
     if args.folds is not None or opm == "auto":
-        signal_arrays(train, inputs, outputs, min_samples=8, what="N4SID")  # checked first
+        # checked first; about the rest, an input held at a non-zero value is a step from zero
+        signal_arrays(
+            train, inputs, outputs, min_samples=8, what="N4SID", step_inputs=opm == "rest"
+        )
 
         ins, dis = exogenous_roles(train[0], inputs, dist)
         folds, texts = make_folds(train, args.folds or 2, ins + dis)
