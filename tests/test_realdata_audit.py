@@ -258,6 +258,10 @@ def test_every_identify_method_gives_a_fit_the_env_takes_as_it_is(tmp_path, meth
         ("ssest", ["--input-delay", "1,2"], "--input-delay"),
         ("n4sid", ["--operating-point", "bogus"], "--operating-point"),
         ("oe", ["--max-delay", "-1"], "--max-delay"),
+        # a declared sign for a name the fit does not have would check nothing, silently
+        ("foptd", ["--expect-sign", "Q=+"], "--expect-sign Q: not an input"),
+        ("n4sid", ["--expect-sign", "P=+,P:T_x=-"], "--expect-sign P:T_x: not an input"),
+        ("arx", ["--na", "1", "--nb", "1", "--nk", "1", "--expect-sign", "heater=+"], "['P']"),
     ],
 )
 def test_bad_values_of_the_new_options_are_named(tmp_path, capsys, method, extra, match):

@@ -26,6 +26,7 @@ from thermogym.identification import n4sid
 from thermogym.identification.advice import (
     FitWarning,
     check_cv_score,
+    check_expect_names,
     check_fit,
     parse_expect_sign,
 )
@@ -178,6 +179,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     vals = load_recordings(args.validate, "validation", args, prepare=prep)
     inputs, outputs = _signals(args, train[0])
     dist = _cols(args.disturbances)
+    check_expect_names(args.expect, [*inputs, *(dist or [])], outputs)
     max_delay = getattr(args, "max_delay_s", None)
     if max_delay is not None:
         span = min(r.duration for r in train)
