@@ -285,3 +285,37 @@ def test_controllers_linear_plant_takes_the_models_operating_point(ss_fit):
     # the plant's steady state at u = 8 is the model's: y0 + K (8 − u_op)
     (G,) = lp.dc_gain()[:1]
     assert float(lp.y_op[0] + G[0, 0] * (8.0 - lp.u_op)) == pytest.approx(26.0)
+
+
+@pytest.mark.parametrize("structure", ["arx", "armax", "bj"])
+def test_k_step_prediction_of_a_polynomial_fit_uses_its_noise_model(structure):
+    # ARX, ARMAX and BJ carry a noise model: their one-step prediction (MATLAB
+    # compare(data, sys, 1)) leaves the innovations, not the simulation error
+    from scipy.signal import lfilter
+
+    from thermogym.models.polynomial import PolynomialModel
+
+    rng = np.random.default_rng(7)
+    n = 800
+    u = np.repeat(rng.choice([-1.0, 1.0], n // 8), 8)
+    e = 0.1 * rng.normal(size=n)
+    if structure == "bj":
+        m = PolynomialModel(["u"], ["y"], structure="bj", nb=1, nf=1, nc=1, nd=1, nk=1, dt=1.0)
+        th = {"b0_y": 0.5, "f1_y": -0.8, "c1_y": 0.4, "d1_y": -0.9}
+        y = lfilter([0, 0.5], [1, -0.8], u) + lfilter([1, 0.4], [1, -0.9], e)
+    else:
+        nc = 1 if structure == "armax" else 0
+        m = PolynomialModel(["u"], ["y"], structure=structure, na=1, nb=1, nc=nc, nk=1, dt=1.0)
+        th = {"a1_y": -0.8, "b0_y": 0.5} | ({"c1_y": 0.4} if nc else {})
+        y = lfilter([0, 0.5], [1, -0.8], u) + lfilter([1, 0.4 if nc else 0.0], [1, -0.8], e)
+    fit = FitResult.from_model(m, parameters=th, method="test")
+    rec = Recording(np.arange(n, dtype=float), {"u": u, "y": y}, experiment_id="poly")
+    one = compare([fit], rec, k_step=1, x0="zero").models[0]
+    assert not one.note  # a noise model: no "output-error structure" note
+    np.testing.assert_allclose(y - one.outputs["y"], e, atol=1e-9)  # the innovations
+    sim = compare([fit], rec, x0="zero").models[0]
+    assert one.fits["y"] > sim.fits["y"] + 0.02
+    # the simulation is the deterministic part, whatever the horizon asked elsewhere
+    np.testing.assert_allclose(sim.outputs["y"], lfilter([0, 0.5], [1, -0.8], u), atol=1e-9)
+    # residual tests of the one-step errors: white, as the innovations are
+    assert resid(fit, rec, k_step=1, x0="zero")["y"].p_white > 0.01

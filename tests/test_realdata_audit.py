@@ -258,6 +258,10 @@ def test_every_identify_method_gives_a_fit_the_env_takes_as_it_is(tmp_path, meth
         ("ssest", ["--input-delay", "1,2"], "--input-delay"),
         ("n4sid", ["--operating-point", "bogus"], "--operating-point"),
         ("oe", ["--max-delay", "-1"], "--max-delay"),
+        # a declared sign for a name the fit does not have would check nothing, silently
+        ("foptd", ["--expect-sign", "Q=+"], "--expect-sign Q: not an input"),
+        ("n4sid", ["--expect-sign", "P=+,P:T_x=-"], "--expect-sign P:T_x: not an input"),
+        ("arx", ["--na", "1", "--nb", "1", "--nk", "1", "--expect-sign", "heater=+"], "['P']"),
     ],
 )
 def test_bad_values_of_the_new_options_are_named(tmp_path, capsys, method, extra, match):
@@ -268,3 +272,19 @@ def test_bad_values_of_the_new_options_are_named(tmp_path, capsys, method, extra
     err = capsys.readouterr().err
     assert match in err and err.count("\n") == 1
     assert not (tmp_path / "fit.json").exists()
+
+
+def test_n4sid_about_the_rest_takes_a_step_test_logged_from_the_step_on(tmp_path, capsys):
+    # a step test logged from the step on (the heater on throughout, TCLab's step run): about
+    # the rest the input is a step from zero, as foptd, sopdt and arx take it; with --folds the
+    # halves hold no input move, so the order comes from the singular values and it says so
+    rec = lag_recording(8, n=300)
+    held = Recording(rec.time, {"P": np.full(300, 6.0), "T": Y_REST + lfilter([0, 3.0], [1, -0.9],
+                     np.ones(300))}, units=dict(rec.units), roles=dict(rec.roles),
+                     experiment_id="step")  # fmt: skip
+    fit = identify(tmp_path, "n4sid", held, "--operating-point", "rest", "--folds", "2",
+                   "--orders", "1:3", "--decimate", "1")  # fmt: skip
+    assert fit.settings["operating_point"]["mode"] == "rest"
+    assert "cv_fallback" in codes(fit)
+    assert "do not move in two separate parts" in capsys.readouterr().err
+    assert fit.metrics["train"]["mnrmse"] > 0.99

@@ -26,6 +26,7 @@ from thermogym.identification import n4sid
 from thermogym.identification.advice import (
     FitWarning,
     check_cv_score,
+    check_expect_names,
     check_fit,
     parse_expect_sign,
 )
@@ -178,6 +179,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     vals = load_recordings(args.validate, "validation", args, prepare=prep)
     inputs, outputs = _signals(args, train[0])
     dist = _cols(args.disturbances)
+    check_expect_names(args.expect, [*inputs, *(dist or [])], outputs)
     max_delay = getattr(args, "max_delay_s", None)
     if max_delay is not None:
         span = min(r.duration for r in train)
@@ -304,7 +306,10 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
     notes: list[Any] = []
     folds = None
     if args.folds is not None or opm == "auto":
-        signal_arrays(train, inputs, outputs, min_samples=8, what="N4SID")  # checked first
+        # checked first; about the rest, an input held at a non-zero value is a step from zero
+        signal_arrays(
+            train, inputs, outputs, min_samples=8, what="N4SID", step_inputs=opm == "rest"
+        )
 
         ins, dis = exogenous_roles(train[0], inputs, dist)
         folds, texts = make_folds(train, args.folds or 2, ins + dis)

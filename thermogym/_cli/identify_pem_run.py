@@ -22,7 +22,11 @@ from thermogym.errors import ConfigError, IdentificationError
 # pem is looked up in its module when called, so that a replacement there is used (the
 # interruption tests replace it)
 from thermogym.identification import pem
-from thermogym.identification.advice import parse_expect_sign, structure_warnings
+from thermogym.identification.advice import (
+    check_expect_names,
+    parse_expect_sign,
+    structure_warnings,
+)
 from thermogym.identification.ssest import identify_auto, ssest
 
 
@@ -119,6 +123,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     vals = load_recordings(args.validate, "validation", args, prepare=prep)
     inputs, outputs = signals(args, train[0])
     dist = _cols(args.disturbances)
+    check_expect_names(args.expect, [*inputs, *(dist or [])], outputs)
     max_delay = getattr(args, "max_delay_s", None)
     if max_delay is not None:  # as foptd: a delay longer than the data cannot be told
         span = min(r.duration for r in train)

@@ -49,6 +49,7 @@ __all__ = [
     "DEFAULT_TOLERANCE",
     "FitWarning",
     "check_cv_score",
+    "check_expect_names",
     "check_fit",
     "check_gain_signs",
     "check_metrics",
@@ -317,6 +318,42 @@ def parse_expect_sign(text: str | Iterable[str] | None) -> dict[str, int]:
                 )
             out[name] = 1 if sign.strip() == "+" else -1
     return out
+
+
+def check_expect_names(
+    expect: Mapping[str, int], inputs: Sequence[str], outputs: Sequence[str]
+) -> None:
+    """Refuse declared signs (:func:`parse_expect_sign`) that name no input or output.
+
+    A misspelt name would otherwise check nothing, silently.
+
+    Raises
+    ------
+    ConfigError
+        An ``IN`` that is not an input, or an ``IN:OUT`` whose ``OUT`` is not an
+        output.
+
+    Examples
+    --------
+    >>> check_expect_names({"P": 1, "P:T": -1, "*": 0}, ["P"], ["T"])
+    >>> check_expect_names({"Q": 1}, ["P"], ["T"])
+    Traceback (most recent call last):
+    ...
+    thermogym.errors.ConfigError: --expect-sign Q: not an input (INPUT) or input and output ...
+    """
+    bad: list[str] = []
+    for key in expect:
+        if key == "*":
+            continue
+        i, _, o = key.partition(":")
+        if i not in inputs or (o and o not in outputs):
+            bad.append(key)
+    if bad:
+        raise ConfigError(
+            f"--expect-sign {', '.join(bad)}: not an input (INPUT) or input and output "
+            f"(INPUT:OUTPUT) of this fit, so nothing would be checked; inputs are "
+            f"{list(inputs)}, outputs {list(outputs)}"
+        )
 
 
 def check_gain_signs(

@@ -260,6 +260,7 @@ def fit_model(
     u_op: NDArray[np.float64] | None = None,
     y_op: NDArray[np.float64] | None = None,
     dt: float | None = None,
+    noise_model: bool = False,
 ) -> tuple[FOPTDModel | StateSpaceModel, NDArray[np.float64]]:
     """The model of an ``ss`` or ``foptd`` FitResult with its operating point, and theta.
 
@@ -271,7 +272,10 @@ def fit_model(
     A polynomial (``arx``, ``armax``, ``oe``, ``bj``) or ``sopdt`` fit is
     returned as its exact deterministic state-space realisation at period
     ``dt`` (default: the model's own, or the training period stored in the
-    fit), with the operating point of ``settings["operating_point"]``.
+    fit), with the operating point of ``settings["operating_point"]``;
+    ``noise_model=True`` keeps the innovation gain ``K`` of an ARX, ARMAX or
+    BJ fit at its own period (its noise model, for k-step predictions; the
+    simulation and the initial-state estimate do not use ``K``).
 
     Returns
     -------
@@ -287,7 +291,7 @@ def fit_model(
     model = fit.build_model()
     theta = fit.theta(model)
     if not isinstance(model, FOPTDModel | StateSpaceModel):
-        return _realized(fit, model, theta, dt, u_op, y_op)
+        return _realized(fit, model, theta, dt, u_op, y_op, noise_model=noise_model)
     if u_op is None and y_op is None:
         return model, theta  # type: ignore[return-value]
     cfg = dict(model.config())
@@ -313,8 +317,10 @@ def _realized(
     dt: float | None,
     u_op: NDArray[np.float64] | None,
     y_op: NDArray[np.float64] | None,
+    *,
+    noise_model: bool = False,
 ) -> tuple[StateSpaceModel, NDArray[np.float64]]:
-    """A polynomial or SOPDT fit as a deterministic :class:`StateSpaceModel`."""
+    """A polynomial or SOPDT fit as a :class:`StateSpaceModel` (with ``K`` if ``noise_model``)."""
     period = dt or getattr(model, "dt", None) or fit.settings.get("dt")
     if period is None:
         raise ConfigError(f"the {fit.model} fit stores no sample period; give dt")
@@ -323,6 +329,9 @@ def _realized(
         A, B, C = np.zeros((1, 1)), np.zeros((1, r.B.shape[2])), np.zeros((r.C.shape[1], 1))
     else:
         A, B, C = r.A[0], r.B[0], r.C[0]
+    # the noise model (ARX 1/A, ARMAX C/A, BJ C/D) is the realisation's innovation gain; it is
+    # zero for OE and SOPDT and away from the model's own period (discrete_realization)
+    K = r.K[0] if noise_model and r.A.shape[1] > 0 and np.any(r.K[0] != 0) else None
     op = fit.settings.get("operating_point") or {}
     exo, outs = list(model.exogenous_names), list(model.output_names)
     if u_op is None:
@@ -334,6 +343,7 @@ def _realized(
         B,
         C,
         r.D[0],
+        K,
         dt=float(period),
         inputs=[s.name for s in model.inputs],
         outputs=outs,
@@ -413,7 +423,8 @@ def predict(
         raise ConfigError(f"x0 is {x0!r}; expected one of {list(X0_CHOICES)}")
     if operating not in OPERATING_CHOICES:
         raise ConfigError(f"operating is {operating!r}; expected one of {list(OPERATING_CHOICES)}")
-    model, theta = fit_model(fit, dt=rec.dt)
+    noise = k_step is not None  # the k-step predictor of a polynomial fit uses its noise model
+    model, theta = fit_model(fit, dt=rec.dt, noise_model=noise)
     exo = list(model.exogenous_names)
     outs = list(model.output_names)
     missing = [c for c in exo if c not in rec.columns]
@@ -433,7 +444,7 @@ def predict(
         operating = "recording" if mode_op in ("initial", "rest") else "fit"
     if operating == "recording" and y is not None and mode_op in OPERATING_POINTS:
         u_rec, y_rec = operating_point(u, y, str(mode_op))
-        model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec, dt=rec.dt)
+        model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec, dt=rec.dt, noise_model=noise)
         used = "recording"
     mode = x0
     if mode == "auto":
