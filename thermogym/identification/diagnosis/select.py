@@ -768,6 +768,18 @@ def forward_selection(
                 rejected[id(steps)] = {h.last.label for h in [*fitted, *rest] if h.last}
                 grown.append((steps, pool, True))
                 continue
+            if r == 0:
+                # the same form of the same effect at another port (a disturbance entered
+                # through the surroundings or beside the heater) is not an alternative
+                # explanation: the beam holds distinct forms
+                distinct: list[Hypothesis] = []
+                for w in winners:
+                    c = _added(w)
+                    if all(
+                        (c.effect, c.form) != (_added(x).effect, _added(x).form) for x in distinct
+                    ):
+                        distinct.append(w)
+                winners = distinct
             for k, w in enumerate(winners[: beam if r == 0 else 1]):
                 data.say(f"kept {_added(w).label} (ΔIC {w.delta_ic:.1f})")
                 nxt = full if (r == 0 and k == 0) else [c for c in pool if id(c) in promising]
