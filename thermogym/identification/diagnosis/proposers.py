@@ -334,8 +334,8 @@ def _input_nonlinearity(ctx: Context) -> list[Candidate]:
             # UA ∝ ṁ^0.8; a coil's effectiveness falling as the flow rises), a physics
             # every coil has; a convex one is the actuator's characteristic (an
             # equal-percentage valve). The data cannot tell a concave valve
-            # characteristic from the former without a flow measurement: the report's
-            # alternatives say so.
+            # characteristic from the former without a flow measurement: the evidence
+            # says so.
             forms[0] = (
                 "power",
                 "power law (convex)",
@@ -356,7 +356,10 @@ def _input_nonlinearity(ctx: Context) -> list[Candidate]:
                     i,
                     (spec,),
                     starts=_starts({f"alpha_{i}": (0.4, 0.95)}, 2),
-                    evidence=ev + f"; {i} acts across the {across} temperature difference",
+                    evidence=ev
+                    + f"; {i} acts across the {across} temperature difference (a concave "
+                    f"characteristic of {i} itself gives the same model: measure the flow "
+                    "to tell them apart)",
                     prior=level,
                 )
             )
