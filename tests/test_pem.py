@@ -382,3 +382,9 @@ def test_identified_plant_randomises_an_ssest_fit_and_explains_an_n4sid_fit(tmp_
     assert plain.covariance is None
     with pytest.raises(ParameterError, match=r"this 'n4sid' fit has none .*identify ssest"):
         gym.make("thermogym/IdentifiedPlant-v0", params=plain, randomize="covariance")
+
+
+def test_a_refinement_that_converges_gives_no_convergence_warning():
+    fit = _lag_fit(0)
+    assert fit.settings["evaluation_limit_reached"] is False
+    assert "not_converged" not in {w["code"] for w in fit.warnings}

@@ -185,6 +185,7 @@ class _Solution:
     nfev: int
     status: str
     jtj: NDArray[np.float64] | None = None  # JᵀJ at the end point (the Fisher information / σ²)
+    at_limit: bool = False  # stopped by max_nfev, not by a convergence test
 
 
 def _solve(
@@ -244,4 +245,6 @@ def _solve(
     J = sol.jac
     jtj = J.T @ J
     cov = s2 * np.linalg.pinv(jtj)
-    return _Solution(th, cov, s2, float(sol.cost), int(sol.nfev), str(sol.message), jtj)
+    return _Solution(
+        th, cov, s2, float(sol.cost), int(sol.nfev), str(sol.message), jtj, sol.status == 0
+    )

@@ -79,6 +79,7 @@ from thermogym.identification._pem_solver import (
     simulation_fit,
 )
 from thermogym.identification._pem_sopdt import sopdt
+from thermogym.identification.advice import structure_warnings
 from thermogym.identification.linear_fit import signal_ranges
 from thermogym.models.linear import StateSpaceModel
 from thermogym.models.polynomial import STRUCTURES
@@ -411,6 +412,8 @@ def refine(
         "cost_after": float(np.sum(_residual_batch(final, final.nominal[None], data, focus) ** 2)),
         "status": status,
         "nfev": sol.nfev,
+        # the solver's end point kept although it stopped at max_nfev: warned (advice)
+        "evaluation_limit_reached": bool(sol.at_limit and th is not th0),
         "order": base.n_states,
         "feedthrough": base.has_D,
     }
@@ -424,4 +427,5 @@ def refine(
         settings=settings,
         notes="N4SID start refined by prediction-error minimisation (as ssest)",
     )
+    out.add_warnings(structure_warnings(out))  # a refinement stopped at its evaluation limit
     return PEMResult(out, final, final.nominal[None], time.perf_counter() - t0)
