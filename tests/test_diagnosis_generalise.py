@@ -17,6 +17,7 @@ from _diag_plants import NodeModel, node_recordings
 
 from thermogym.identification.diagnosis import diagnose
 from thermogym.identification.diagnosis.run import INADEQUATE_MARGIN
+from thermogym.identification.metrics import fit_text
 from thermogym.recording import Recording
 
 _FAST = {"hours": 1.5, "dt": 10.0}
@@ -137,12 +138,20 @@ def test_units_missing_heat_transfer_is_tried_as_celsius_and_said():
 def test_a_nominal_model_worse_than_a_plain_arx_is_said_first():
     # the block carries a second mass the one-node model cannot follow: a second-order ARX can
     tr, va = node_recordings(8, effects={"mass": (8000.0, 2.0)}, coloured=0.02, **_FAST)
-    rep = diagnose(NodeModel(), tr, va, candidates=["sensor_offset"])
+    said: list[str] = []
+    rep = diagnose(NodeModel(), tr, va, candidates=["sensor_offset"], progress=said.append)
     assert not rep.nominal_adequate
     assert rep.verdict.startswith("Nominal model inadequate")
     b = rep.baseline
     assert b["validation"]["mean"] > b["nominal_validation"]["mean"]
     assert "Nominal model inadequate" in rep.to_markdown()
+    # the fit as every command shows it: "fit 84.31 %", not a fraction called NRMSE
+    arx, nom = fit_text(b["validation"]["mean"]), fit_text(b["nominal_validation"]["mean"])
+    assert f"(mean fit {arx} against {nom})" in rep.verdict
+    assert f"better: mean fit {arx} against the nominal model's {nom}" in rep.to_markdown()
+    assert f"held-out mean fit {nom} against a plain ARX's {arx}" in " ".join(said)
+    assert any(re.search(r"held-out ΔIC -?[\d.]+, mean fit -?[\d.]+ % ", s) for s in said)
+    assert not any("NRMSE" in s for s in [*said, rep.verdict])
 
 
 def test_a_parameter_the_training_data_cannot_identify_is_reported_as_such():
@@ -287,3 +296,22 @@ def test_parameter_error_verdict_does_not_claim_the_whole_answer_when_a_residual
     rep.detection = {"residual_structure": True}
     assert "no physics is missing" not in rep.verdict
     assert "explains part of the mismatch" in rep.verdict and "mostly T" in rep.verdict
+
+
+def test_verdict_and_markdown_show_the_fit_in_percent():
+    from thermogym.identification.diagnosis.report import DiagnosisReport
+
+    rep = DiagnosisReport("tank", {}, ["T"], ["P"], {"T": "°C"}, True, 0.01, {}, {}, None, {})  # type: ignore[arg-type]
+    rep.named_effects = ["sensor_offset"]
+    rep.located = {"signals": [{"signal": "T"}]}
+    rep.combination = [{"effect": "sensor_offset", "form": "constant", "target": "T"}]
+    rep.best = {
+        "effect": "sensor_offset",
+        "validation_before": {"T": 0.81234, "mean": 0.81234},
+        "validation_after": {"T": 0.93456, "mean": 0.93456},
+        "fit_after": {"T": 0.95, "mean": 0.95},
+    }
+    rep.fit_before = {"train": {"T": 0.7, "mean": 0.7}, "validation": {"T": 0.6, "mean": 0.6}}
+    assert "held-out mean fit 81.23 % → 93.46 %" in rep.verdict
+    rows = rep._fit_rows()
+    assert rows[0] == ["T", "70.00 %", "95.00 %", "81.23 %", "93.46 %"]

@@ -307,3 +307,84 @@ def test_auto_prefers_output_error_for_a_plant_with_white_measurement_noise():
     assert res.fit.settings["auto"]["chosen"] == "oe"
     assert scores["oe"]["cv_mnrmse"] > scores["arx"]["cv_mnrmse"]
     assert res.fit.parameters["f1_y"] == pytest.approx(-0.9, abs=0.02)
+
+
+def _lag_fit(seed: int, noise: float = 0.05):  # type: ignore[no-untyped-def]
+    """ssest of order 1 on y = 0.1 q⁻¹ / (1 − 0.9 q⁻¹) u + white noise (gain 1, pole 0.9)."""
+    from thermogym.identification.ssest import ssest
+
+    rng = np.random.default_rng(seed)
+    u = _prbs(rng, 400, 10)
+    y = lfilter([0.0, 0.1], [1.0, -0.9], u) + noise * rng.normal(size=u.size)
+    return ssest(_rec(u[:, None], y), ["u"], ["y"], order=1, feedthrough=False,
+                 input_delay=0, operating_point_mode="none").fit  # fmt: skip
+
+
+def test_ssest_covariance_matches_the_spread_over_noise_realisations():
+    # the pole and the DC gain of a refined state space vary over noise realisations as
+    # its stored covariance says (delta method), and nothing moves along the similarity
+    # direction (B, C) -> (t B, C / t), which the data cannot determine
+    fits = [_lag_fit(seed) for seed in range(20)]
+
+    def pole_gain(p):  # type: ignore[no-untyped-def]
+        a, b, c = p["A_0_0"], p["B_0_0"], p["C_0_0"]
+        return np.array([a, c * b / (1.0 - a)])
+
+    seen = np.array([pole_gain(f.parameters) for f in fits])
+    f = fits[0]
+    assert f.method == "ssest" and f.covariance is not None
+    names = list(f.covariance_names)
+    cov = np.asarray(f.covariance)
+    x = np.array([f.parameters[n] for n in names])
+    # Jacobian of (pole, gain) by central differences
+    G = np.zeros((2, x.size))
+    for k in range(x.size):
+        h = 1e-6 * max(abs(x[k]), 1.0)
+        up, dn = x.copy(), x.copy()
+        up[k] += h
+        dn[k] -= h
+        hi = pole_gain(dict(zip(names, up, strict=True)))
+        lo = pole_gain(dict(zip(names, dn, strict=True)))
+        G[:, k] = (hi - lo) / (2 * h)
+    predicted = np.sqrt(np.diag(G @ cov @ G.T))
+    empirical = seen.std(axis=0, ddof=1)
+    assert np.all(predicted > empirical / 2) and np.all(predicted < empirical * 2), (
+        predicted,
+        empirical,
+    )
+    tangent = np.zeros(x.size)
+    tangent[names.index("B_0_0")] = f.parameters["B_0_0"]
+    tangent[names.index("C_0_0")] = -f.parameters["C_0_0"]
+    assert tangent @ cov @ tangent <= 1e-12 * np.trace(cov) * (tangent @ tangent)
+
+
+def test_identified_plant_randomises_an_ssest_fit_and_explains_an_n4sid_fit(tmp_path):
+    import gymnasium as gym
+
+    from thermogym.errors import ParameterError
+    from thermogym.identification.n4sid import n4sid
+
+    fit = _lag_fit(0)
+    fit.save(tmp_path / "ssest.json")
+
+    def poles(seed: int) -> float:
+        env = gym.make("thermogym/IdentifiedPlant-v0", params=str(tmp_path / "ssest.json"),
+                       randomize="covariance")  # fmt: skip
+        env.reset(seed=seed)
+        return float(env.unwrapped._e.A[0, 0, 0])
+
+    assert poles(1) == poles(1) != poles(2)
+    assert abs(poles(3) - fit.parameters["A_0_0"]) < 0.05
+    rng = np.random.default_rng(0)
+    u = _prbs(rng, 400, 10)
+    rec = _rec(u[:, None], lfilter([0.0, 0.1], [1.0, -0.9], u) + 0.05 * rng.normal(size=400))
+    plain = n4sid(rec, ["u"], ["y"], 1).fit
+    assert plain.covariance is None
+    with pytest.raises(ParameterError, match=r"this 'n4sid' fit has none .*identify ssest"):
+        gym.make("thermogym/IdentifiedPlant-v0", params=plain, randomize="covariance")
+
+
+def test_a_refinement_that_converges_gives_no_convergence_warning():
+    fit = _lag_fit(0)
+    assert fit.settings["evaluation_limit_reached"] is False
+    assert "not_converged" not in {w["code"] for w in fit.warnings}

@@ -288,3 +288,29 @@ def test_n4sid_about_the_rest_takes_a_step_test_logged_from_the_step_on(tmp_path
     assert "cv_fallback" in codes(fit)
     assert "do not move in two separate parts" in capsys.readouterr().err
     assert fit.metrics["train"]["mnrmse"] > 0.99
+
+
+def test_hair_dryer_arx_warns_that_the_best_order_is_at_the_edge(tmp_path, capsys):
+    # the cross-validation curve rises to the last order searched (10) while the rule takes
+    # 9, within 0.1 % of it: the range may be too small, even though 9 is not at the edge
+    out = tmp_path / "arx.json"
+    assert cli_main(["identify", "arx", "dataset:hair_dryer", "--out", str(out)]) == 0
+    fit = FitResult.load(out)
+    cv = fit.settings["cross_validation"]
+    assert cv["chosen_order"] < len(cv["order_scores"]) == int(np.argmax(cv["order_scores"])) + 1
+    assert "order_at_edge" in codes(fit)
+    err = capsys.readouterr().err
+    assert "the best cross-validated order is 10, the largest searched (1..10" in err
+    assert "the range may be too small" in err
+
+
+def test_ssest_stopped_at_its_evaluation_limit_is_a_warning_not_plain_text(tmp_path, capsys):
+    out = tmp_path / "ssest.json"
+    assert cli_main(["identify", "ssest", "dataset:hair_dryer", "--out", str(out)]) == 0
+    std = capsys.readouterr()
+    fit = FitResult.load(out)
+    assert fit.settings["evaluation_limit_reached"] is True
+    assert "not_converged" in codes(fit)
+    assert "warning: the prediction-error refinement stopped at its limit of 40" in std.err
+    assert "maximum number of function evaluations" not in std.out + std.err
+    assert "refinement: stopped after 40 evaluations (see the warning)" in std.out

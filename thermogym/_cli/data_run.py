@@ -9,7 +9,7 @@ import argparse
 import ast
 import json
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +26,7 @@ from thermogym.recording import CSV_SUFFIXES, PARQUET_SUFFIXES
 
 __all__ = [
     "JITTER_TOL",
+    "check_units",
     "load_recordings",
     "parse_prepare",
     "recording_inputs",
@@ -325,3 +326,43 @@ def load_recordings(
                 rec = regularise(rec, label, say)
             recs.append(rec)
     return recs
+
+
+def check_units(
+    rec: Any,
+    expected: Mapping[str, str | None],
+    owner: str,
+    say: Callable[[str], None] = print,
+) -> None:
+    """Check a recording's units against a model's or fit's, noting what was not checked.
+
+    Parameters
+    ----------
+    rec : Recording
+        The recording read.
+    expected : mapping
+        Column name → the unit the model or fit expects (``"1"`` or none:
+        unspecified).
+    owner : str
+        Who expects them, for messages (``"model 'ss'"``).
+    say : callable
+        Where the note goes.
+
+    Raises
+    ------
+    UnitError
+        A real conflict (``"°C"`` against ``"K"``), naming the column and both units.
+    """
+    unchecked = rec.check_units(expected, owner)
+    if not unchecked:
+        return
+
+    def shown(unit: str | None) -> str:
+        return repr(unit) if unit and unit.strip() not in ("1", "-") else "unspecified"
+
+    parts = ", ".join(
+        f"{n!r} (recording {shown(rec.units.get(n))}, {owner} {shown(expected.get(n))})"
+        for n in unchecked
+    )
+    label = rec.experiment_id or "recording"
+    say(f"note: {label}: units not checked for {parts}: one side gives no unit")

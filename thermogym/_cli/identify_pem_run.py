@@ -185,10 +185,13 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             **common,
         )
         st = res.fit.settings
+        refined = st.get("status", "none")
+        if st.get("evaluation_limit_reached"):
+            refined = f"stopped after {st.get('nfev')} evaluations (see the warning)"
         print(
             f"ssest in {res.seconds:.2f} s: order {st['order']}, feedthrough "
             f"{st['feedthrough']}, input delay {st['input_delay']} samples "
-            f"({st['structure_source']}); refinement: {st.get('status', 'none')}"
+            f"({st['structure_source']}); refinement: {refined}"
         )
     else:
         fams = list(args.families)

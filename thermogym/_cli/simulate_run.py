@@ -15,7 +15,7 @@ import numpy as np
 # replacement there is used (the interruption tests replace them)
 from thermogym import recording
 from thermogym._cli.common import plan_outputs
-from thermogym._cli.data_run import load_recordings
+from thermogym._cli.data_run import check_units, load_recordings
 from thermogym.errors import ConfigError
 from thermogym.fitresult import load_fit
 from thermogym.identification.linear_fit import LINEAR_MODELS, predict, simulate_recording
@@ -71,7 +71,8 @@ def run(args: argparse.Namespace) -> int:
         overrides: dict[str, Any] = dict(sets)  # parameter name -> value
         theta = model.theta(theta, **overrides)
     (rec,) = load_recordings([args.inputs], "--inputs", args)
-    rec.validate_for(model, outputs=False)
+    rec.validate_for(model, outputs=False)  # the columns; units as check_units
+    check_units(rec, {s.name: s.unit for s in model.signals}, f"model {model.name!r}")
     rec.check_values([s.name for s in model.exogenous])
     if linear is not None:
         linear.parameters.update(sets)

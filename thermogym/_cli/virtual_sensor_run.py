@@ -15,7 +15,7 @@ import numpy as np
 # (the interruption tests replace it)
 from thermogym import recording
 from thermogym._cli.common import plan_outputs
-from thermogym._cli.data_run import load_recordings
+from thermogym._cli.data_run import check_units, load_recordings
 from thermogym.errors import ConfigError
 from thermogym.estimation import consistency, normalized_error_squared
 from thermogym.firmware.export import sensor_from_fit
@@ -87,9 +87,12 @@ def _estimate(args: argparse.Namespace, plan: Any) -> int:
         disturbance_inputs=_names(args.disturbance) or (),
     )
     (rec,) = load_recordings([args.data], "DATA", args)
+    # exogenous, measured and hidden channels (a recorded hidden one is compared)
+    check_units(rec, sensor.units, f"fit {Path(args.fit).name!r}")
     sensor = _at_rate(sensor, rec)
     if args.tune:
         (cal,) = load_recordings([args.tune], "--tune", args)
+        check_units(cal, sensor.units, f"fit {Path(args.fit).name!r}")
         cal_sensor = _at_rate(sensor, cal)
         u_c, z_c = cal_sensor.arrays(cal)
         _, alpha = cal_sensor.tuned(u_c, z_c)

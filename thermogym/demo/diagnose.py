@@ -18,6 +18,7 @@ from thermogym.demo.identify import save_fit
 from thermogym.demo.rigs import CONCEALED
 from thermogym.fitresult import load_fit
 from thermogym.identification.diagnosis import diagnose
+from thermogym.identification.metrics import fit_text
 
 __all__ = ["load_diagnose", "stage_diagnose"]
 
@@ -60,11 +61,11 @@ def stage_diagnose(ctx: DemoContext, res: StageResult) -> None:
     res.table(
         ["output", "train before", "train after", "held-out before", "held-out after"],
         [
-            [o, _f(fb["train"], o), _f(tr_after, o), _f(va_before, o), _f(va_after, o)]
+            [o, *(fit_text(_f(d, o)) for d in (fb["train"], tr_after, va_before, va_after))]
             for o in [*rep.outputs, "mean"]
         ],
-        "NRMSE fit (1 = perfect) of the nominal and the augmented strut model; held-out: "
-        "25 and 30 m/min",
+        "Fit (NRMSE fit, %; 100 % = perfect) of the nominal and the augmented strut model; "
+        "held-out: 25 and 30 m/min",
     )
     hyp_rows = []
     for i, h in enumerate(rep.hypotheses[:6]):
@@ -78,12 +79,12 @@ def stage_diagnose(ctx: DemoContext, res: StageResult) -> None:
                 h["effect"],
                 h.get("target", ""),
                 params[:80],
-                _f(h.get("validation_after", {}), "mean"),
+                fit_text(_f(h.get("validation_after", {}), "mean")),
                 f"{100 * h.get('explained', 0.0):.0f} %",
             ]
         )
     res.table(
-        ["rank", "effect", "target", "fitted extra parameters", "held-out mean NRMSE", "explained"],
+        ["rank", "effect", "target", "fitted extra parameters", "held-out mean fit", "explained"],
         hyp_rows,
         "Hypotheses from the effect vocabulary, ranked on held-out data (BIC penalty)",
     )
@@ -107,7 +108,7 @@ def stage_diagnose(ctx: DemoContext, res: StageResult) -> None:
     )
     res.highlights["diagnosis (strut)"] = (
         f"found `{found}` (concealed: `{CONCEALED}`, {'correct' if ok else 'WRONG'}); held-out "
-        f"mean NRMSE {_f(va_before, 'mean'):.4f} → {_f(va_after, 'mean'):.4f} in "
+        f"mean fit {fit_text(_f(va_before, 'mean'))} → {fit_text(_f(va_after, 'mean'))} in "
         f"{rep.seconds:.1f} s"
     )
 

@@ -26,6 +26,7 @@ from thermogym.identification.coordinator import run_identification
 from thermogym.identification.foptd import fit_foptd
 from thermogym.identification.greybox_axt211 import _SPEC, MECHANICAL, THERMAL, identify_axt211
 from thermogym.identification.linear_plots import plot_order_cv
+from thermogym.identification.metrics import fit_text
 from thermogym.identification.n4sid import n4sid
 from thermogym.identification.prepare import prepare
 from thermogym.models.registry import get_model
@@ -152,7 +153,7 @@ def _spindle(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> 
     ctx.products["fit_spindle_n4sid"] = fit
     va = _mean(fit.metrics.get("validation"))
     res.highlights["spindle N4SID"] = (
-        f"order {order} by cross-validation, held-out MNRMSE {va:.4f} (`{rel}`)"
+        f"order {order} by cross-validation, held-out mean fit {fit_text(va)} (`{rel}`)"
     )
     ctx.products.setdefault("fit_rows", []).append(
         ["spindle", "N4SID (order by CV)", order, _mean(fit.metrics.get("train")), va, f"`{rel}`"]
@@ -234,7 +235,7 @@ def _strut(ctx: DemoContext, res: StageResult, recs: dict[str, list[Any]]) -> No
     )
     res.highlights["strut ratios (Monte Carlo)"] = (
         f"{n} parameter sets in {mc.elapsed_s:.2f} s (paper 000: 60 min); held-out mean "
-        f"NRMSE {_mean(mc.fit.metrics.get('validation')):.4f}"
+        f"fit {fit_text(_mean(mc.fit.metrics.get('validation')))}"
     )
 
 
@@ -358,17 +359,20 @@ def stage_identify(ctx: DemoContext, res: StageResult) -> None:
 
 
 def _fit_table(rows: list[list[Any]]) -> Any:
+    def cell(v: Any) -> Any:  # a fit (fraction) in percent, as every command shows it
+        return fit_text(v) if isinstance(v, float) else v
+
     return Table(
         [
             "plant",
             "model / method",
             "order / parameters",
-            "train MNRMSE",
-            "held-out MNRMSE",
+            "train fit",
+            "held-out fit",
             "file",
         ],
-        rows,
-        "FitResults written (MNRMSE: mean NRMSE fit of paper 001 eq 6, 1 = perfect)",
+        [[*r[:3], cell(r[3]), cell(r[4]), *r[5:]] for r in rows],
+        "FitResults written (fit: mean NRMSE fit of paper 001 eq 6 in %, 100 % = perfect)",
     )
 
 

@@ -26,7 +26,7 @@ from thermogym.firmware.toolchain import (
     run_host_test,
     run_simavr,
 )
-from thermogym.identification.metrics import nrmse, rmse
+from thermogym.identification.metrics import fit_text, nrmse, rmse
 from thermogym.studies.spindle import INTERNAL, SURFACE, virtual_sensor_fit
 
 __all__ = ["stage_sensor"]
@@ -56,8 +56,8 @@ def stage_sensor(ctx: DemoContext, res: StageResult) -> None:
             ]
         )
     res.table(
-        ["hidden output", "RMSE [K]", "NRMSE fit", "mean estimate σ [K]"],
-        rows,
+        ["hidden output", "RMSE [K]", "fit", "mean estimate σ [K]"],
+        [[r[0], r[1], fit_text(r[2]), r[3]] for r in rows],
         f"Virtual sensor (3I5O, order 8, trained at {train_speed} rpm) on the held-out "
         f"{speed} rpm day: internal temperatures estimated from speed and surface "
         "temperatures (rises above ambient)",
@@ -142,6 +142,6 @@ def stage_sensor(ctx: DemoContext, res: StageResult) -> None:
         f"`{ctx.rel(folder)}/` (`make -C {ctx.rel(folder)} test` repeats the host check)."
     )
     res.highlights["virtual sensor"] = (
-        f"hidden temperatures on a held-out day: mean NRMSE fit {mean_fit:.4f}; firmware host "
+        f"hidden temperatures on a held-out day: mean fit {fit_text(mean_fit)}; firmware host "
         f"test {'passed' if host_ok else 'FAILED'}{avr}"
     )

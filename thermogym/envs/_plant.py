@@ -316,9 +316,19 @@ def make_sampler(
     centre = model.theta(fit.parameters)[0]
     if method == "covariance":
         if fit.covariance is None and not any(np.isfinite(list(fit.stderr.values()))):
+            if fit.method == "n4sid" or fit.model == "ss":
+                raise ParameterError(
+                    "randomisation 'covariance' needs a FitResult with a covariance or standard "
+                    f"errors; this {fit.method or fit.model!r} fit has none (N4SID estimates no "
+                    "parameter covariance). Fits that carry one: `thermogym identify ssest` "
+                    "(N4SID refined by prediction-error minimisation), arx, armax, oe, bj, "
+                    "sopdt and foptd; re-identify with `identify ssest`, or randomise with "
+                    "'relative' (each parameter uniform within ±scale of its value)"
+                )
             raise ParameterError(
                 "randomisation 'covariance' needs a FitResult with a covariance or standard "
-                "errors; this one has none (use 'bounds' or 'relative')"
+                f"errors; this {fit.method or fit.model!r} fit has none (use 'bounds' or "
+                "'relative')"
             )
 
         def draw(rng: np.random.Generator) -> NDArray[np.float64]:

@@ -67,7 +67,9 @@ Arguments
 See :class:`IdentifiedPlantConfig`. Domain randomisation:
 ``randomize="covariance"`` draws every episode's parameters from the fit's
 covariance (:meth:`thermogym.fitresult.FitResult.sample`; draws with an
-unstable model are drawn again).
+unstable model are drawn again, up to 100 times). The ARX-family, SOPDT,
+FOPTD and ``ssest`` fits carry a covariance; a plain N4SID fit does not
+(refine it with ``identify ssest``, or use ``randomize="relative"``).
 
 KPIs
 ----
@@ -204,6 +206,10 @@ def _names_map(env: str, what: str, given: Mapping[str, Any] | None, names: list
     if unknown:
         raise ConfigError(f"{env}: {what} names {unknown}; the signals are {names}")
     return dict(given)
+
+
+#: Draws of a randomised episode's parameters until a stable model comes up.
+_STABLE_DRAWS = 100
 
 
 class _IdentifiedEngine(Engine):
@@ -450,12 +456,17 @@ class _IdentifiedEngine(Engine):
         inner = self.sampler
 
         def stable(rng: np.random.Generator) -> NDArray[np.float64]:
-            for _ in range(20):  # an unstable draw is drawn again
+            # an unstable draw is drawn again: a fit with a slow pole (0.998 in the hair
+            # dryer's ssest model) leaves the unit circle in a good share of its draws
+            for _ in range(_STABLE_DRAWS):
                 th = inner(rng)
                 r = self._realize(th)
                 if r.A.shape[1] == 0 or np.abs(np.linalg.eigvals(r.A[0])).max() < 1.0:
                     return th
-            raise ParameterError(f"{ENV}: no stable model in 20 draws from the fit's distribution")
+            raise ParameterError(
+                f"{ENV}: no stable model in {_STABLE_DRAWS} draws from the fit's distribution; "
+                "pass randomize_kwargs={'scale': s} with s < 1 for a narrower one"
+            )
 
         self.sampler = stable
 

@@ -184,6 +184,8 @@ class _Solution:
     cost: float
     nfev: int
     status: str
+    jtj: NDArray[np.float64] | None = None  # JᵀJ at the end point (the Fisher information / σ²)
+    at_limit: bool = False  # stopped by max_nfev, not by a convergence test
 
 
 def _solve(
@@ -241,5 +243,8 @@ def _solve(
     N = sol.fun.size
     s2 = float(sol.fun @ sol.fun / max(N - free.size, 1))
     J = sol.jac
-    cov = s2 * np.linalg.pinv(J.T @ J)
-    return _Solution(th, cov, s2, float(sol.cost), int(sol.nfev), str(sol.message))
+    jtj = J.T @ J
+    cov = s2 * np.linalg.pinv(jtj)
+    return _Solution(
+        th, cov, s2, float(sol.cost), int(sol.nfev), str(sol.message), jtj, sol.status == 0
+    )

@@ -13,8 +13,8 @@ code                     fires when
                          than its own mean)
 ``gain_sign``            a steady-state gain has the sign opposite to the declared physics
                          (a heater on a temperature must raise it; see :func:`expected_signs`)
-``order_at_edge``        the chosen order (or delay) is the largest of the searched range:
-                         the best may lie beyond it
+``order_at_edge``        the chosen order (or delay), or the best-scoring one, is the largest
+                         of the searched range: the best may lie beyond it
 ``flat_cv``              the cross-validation curve is flat: several orders fit the held-out
                          data within the tolerance, so the data do not determine the order
                          and the smallest of them is taken
@@ -22,6 +22,8 @@ code                     fires when
                          enough to separate gain and time constant
 ``cv_fallback``          cross-validation could not use the folds asked for, and did
                          something else (what, is in the message)
+``not_converged``        the prediction-error refinement stopped at its limit of function
+                         evaluations, not at a minimum of the error
 =======================  ===================================================================
 
 The order rule (:func:`parsimonious_index`) is the same for the command line,
@@ -68,6 +70,7 @@ CODES: tuple[str, ...] = (
     "flat_cv",
     "time_constant_bound",
     "cv_fallback",
+    "not_converged",
 )
 #: Validation-fit tolerance of the order rule (fraction: 0.001 = 0.1 percentage point).
 DEFAULT_TOLERANCE = 1e-3
@@ -146,9 +149,11 @@ def check_order(
 ) -> list[FitWarning]:
     """Warnings about an order chosen from a validation curve.
 
-    ``order_at_edge`` when ``chosen`` is the largest order searched (and more
-    than one order was searched); ``flat_cv`` when at least three orders are
-    within ``tolerance`` of the best.
+    ``order_at_edge`` when ``chosen`` is the largest order searched, or when
+    the best-scoring order is (the parsimonious rule took a smaller one, but
+    the curve still rises at the end of the range), and more than one order
+    was searched; ``flat_cv`` when at least three orders are within
+    ``tolerance`` of the best.
 
     Examples
     --------
@@ -156,10 +161,13 @@ def check_order(
     ['order_at_edge']
     >>> [w.code for w in check_order(range(1, 6), [0.5, 0.9, 0.9, 0.9, 0.9], 2)]
     ['flat_cv']
+    >>> [w.code for w in check_order(range(1, 6), [0.5, 0.9, 0.9, 0.9, 0.9005], 2)]
+    ['order_at_edge', 'flat_cv']
     """
     o = [int(v) for v in orders]
     s = np.asarray(scores, dtype=float)
     out: list[FitWarning] = []
+    safe = np.where(np.isfinite(s), s, -np.inf)
     if len(o) > 1 and int(chosen) == max(o):
         out.append(
             FitWarning(
@@ -168,7 +176,23 @@ def check_order(
                 f"the best may lie beyond; widen the range",
             )
         )
-    safe = np.where(np.isfinite(s), s, -np.inf)
+    elif (
+        len(o) > 1
+        and np.isfinite(safe).any()
+        and o[int(np.argmax(safe))] == max(o)
+        and int(chosen) in o
+        # more than round-off above the chosen order (noise-free data give equal scores)
+        and safe.max() - safe[o.index(int(chosen))] > 0.01 * tolerance
+    ):
+        out.append(
+            FitWarning(
+                "order_at_edge",
+                f"the best cross-validated {what} is {max(o)}, the largest searched "
+                f"({min(o)}..{max(o)}; {100 * safe.max():.2f} %), though {int(chosen)} is "
+                f"taken as the smallest within {100 * tolerance:.2g} % of it: the range may be "
+                "too small and the best may lie beyond; widen the range",
+            )
+        )
     if np.isfinite(safe).any():
         near = [n for n, v in zip(o, safe, strict=True) if v >= safe.max() - tolerance]
         if len(near) >= _FLAT_COUNT:
@@ -571,6 +595,16 @@ def structure_warnings(
                     f"(0..{delays[-1]}): the best may lie beyond; raise --max-delay",
                 )
             )
+    if st.get("evaluation_limit_reached"):
+        out.append(
+            FitWarning(
+                "not_converged",
+                "the prediction-error refinement stopped at its limit of "
+                f"{st.get('nfev', '?')} function evaluations before converging: the model is "
+                "the best point reached, not a minimum of the error (compare its fit with the "
+                "N4SID start of `identify ssest --no-refine`)",
+            )
+        )
     if fit.model == "sopdt":
         bound = st.get("max_delay_s")
         for name, v in fit.parameters.items():

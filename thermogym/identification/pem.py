@@ -56,6 +56,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from thermogym._checks import choice, integer
 from thermogym.errors import ConfigError
@@ -78,6 +79,7 @@ from thermogym.identification._pem_solver import (
     simulation_fit,
 )
 from thermogym.identification._pem_sopdt import sopdt
+from thermogym.identification.advice import structure_warnings
 from thermogym.identification.linear_fit import signal_ranges
 from thermogym.models.linear import StateSpaceModel
 from thermogym.models.polynomial import STRUCTURES
@@ -268,6 +270,51 @@ def pem(
     return PEMResult(fit, model, theta, time.perf_counter() - t0, selection)
 
 
+def _ss_covariance(
+    model: StateSpaceModel,
+    theta: NDArray[np.float64],
+    jtj: NDArray[np.float64] | None,
+    sigma2: float,
+) -> NDArray[np.float64] | None:
+    """Covariance of a fully parametrised state space at a PEM optimum, σ² (JᵀJ)⁻¹.
+
+    Every entry of ``A``, ``B``, ``C`` (``D``, ``K``) is a parameter, so the
+    realisation is not unique: ``T A T⁻¹, T B, C T⁻¹, D, T K`` fits as well
+    for any invertible ``T``, and ``JᵀJ`` is singular along the ``n²``
+    directions ``δA = E A − A E``, ``δB = E B``, ``δC = −C E``, ``δK = E K``.
+    The inverse is taken on the complement of those directions (the local
+    coordinates of McKelvey, Helmersson and Ribarits 2004, which MATLAB's
+    ``ssest`` uses for its free parametrisation): a draw from it changes the
+    input-output behaviour only as the data allow, and moves nothing along
+    the similarity directions, whose spread the data do not determine.
+    ``None`` when the solver gave no ``JᵀJ`` or the complement is singular.
+    """
+    if jtj is None:
+        return None
+    mats = model.matrices(theta[None])
+    A, B, C = mats.A[0], mats.B[0], mats.C[0]
+    n, P = A.shape[0], theta.size
+    sl = model._sl
+    tangents = np.zeros((P, n * n))
+    for k in range(n * n):
+        E = np.zeros((n, n))
+        E[k // n, k % n] = 1.0
+        tangents[sl["A"], k] = (E @ A - A @ E).ravel()
+        tangents[sl["B"], k] = (E @ B).ravel()
+        tangents[sl["C"], k] = (-C @ E).ravel()
+        if "K" in sl:
+            tangents[sl["K"], k] = (E @ mats.K[0]).ravel()
+    U, S, _ = np.linalg.svd(tangents, full_matrices=True)
+    rank = int(np.sum(S > S.max() * 1e-10)) if S.size else 0
+    N = U[:, rank:]  # orthonormal basis of the identifiable directions
+    M = N.T @ jtj @ N
+    w = np.linalg.eigvalsh(M)
+    if not N.shape[1] or w.min() <= w.max() * 1e-12:
+        return None  # some behaviour the data do not determine: no honest covariance
+    cov = sigma2 * N @ np.linalg.solve(M, N.T)
+    return 0.5 * (cov + cov.T)
+
+
 def refine(
     fit: FitResult,
     recordings: Recording | Sequence[Recording],
@@ -298,7 +345,9 @@ def refine(
     -------
     PEMResult
         A FitResult of method ``"ssest"`` whose settings keep the N4SID
-        settings under ``"n4sid"``.
+        settings under ``"n4sid"``, with the parameter covariance of the
+        prediction-error fit at its optimum (none when the N4SID start is
+        kept because the refinement did not improve it stably).
     """
     t0 = time.perf_counter()
     fit = load_fit(fit)
@@ -337,8 +386,10 @@ def refine(
     ):
         th = th0  # an unstable or worse end point: keep the N4SID model
         status = "kept the N4SID model (refinement did not improve it stably)"
+        cov = None  # the N4SID start is no minimum of the error: no covariance from there
     else:
         status = sol.status
+        cov = _ss_covariance(model, th, sol.jtj, sol.sigma2)
     mats = model.matrices(th[None])
     final = StateSpaceModel.from_matrices(
         mats.A[0],
@@ -361,17 +412,20 @@ def refine(
         "cost_after": float(np.sum(_residual_batch(final, final.nominal[None], data, focus) ** 2)),
         "status": status,
         "nfev": sol.nfev,
+        # the solver's end point kept although it stopped at max_nfev: warned (advice)
+        "evaluation_limit_reached": bool(sol.at_limit and th is not th0),
         "order": base.n_states,
         "feedthrough": base.has_D,
     }
     out = _fitresult(
         final,
         final.nominal[None],
-        None,
+        cov,
         prob,
         vals,
         method="ssest",
         settings=settings,
         notes="N4SID start refined by prediction-error minimisation (as ssest)",
     )
+    out.add_warnings(structure_warnings(out))  # a refinement stopped at its evaluation limit
     return PEMResult(out, final, final.nominal[None], time.perf_counter() - t0)

@@ -124,6 +124,41 @@ def _with_delay(model: StateSpaceModel, d: int) -> StateSpaceModel:
     )
 
 
+def _delayed_covariance(
+    fit: Any, full: StateSpaceModel, n: int, d: int
+) -> NDArray[np.float64] | None:
+    """The refined fit's parameter covariance on the parameters of ``_with_delay(model, d)``.
+
+    The delayed model holds the fitted ``A`` and ``C`` where they were, each
+    column of ``B`` as the column of ``A`` fed by the last register of its
+    input, and fixed shift-register entries, which get no variance. ``None``
+    when the fit has no covariance (not refined, or the N4SID start was kept).
+    """
+    if fit.covariance is None:
+        return None
+    names = list(fit.covariance_names)
+    src = np.asarray(fit.covariance, dtype=np.float64)
+
+    def target(name: str) -> str | None:
+        mat, i, j = name.split("_")
+        if mat in ("A", "C"):
+            return name
+        if mat == "B":  # B[i, k] drives state i from the last register of input k
+            return f"A_{i}_{n + int(j) * d + d - 1}" if d else name
+        if mat == "D" and not d:
+            return name
+        return None  # K: dropped by the delayed realisation (simulation focus has none)
+
+    pos = {p: k for k, p in enumerate(full.param_names)}
+    cov = np.zeros((len(pos), len(pos)))
+    idx = [(k, pos.get(target(nm) or "")) for k, nm in enumerate(names)]
+    idx = [(k, t) for k, t in idx if t is not None]
+    src_i = np.array([k for k, _ in idx], dtype=np.int64)
+    dst_i = np.array([t for _, t in idx], dtype=np.int64)
+    cov[np.ix_(dst_i, dst_i)] = src[np.ix_(src_i, src_i)]
+    return cov
+
+
 def ssest(
     recordings: Recording | Sequence[Recording],
     inputs: Sequence[str] | str,
@@ -176,6 +211,10 @@ def ssest(
         FitResult of model ``ss``, method ``"ssest"`` (or ``"n4sid"`` without
         refinement); ``settings["structure_cv"]`` holds every structure's VA;
         the warnings of :mod:`~thermogym.identification.advice` are stored.
+        A refined fit carries the prediction-error covariance of its
+        parameters (what ``randomize="covariance"`` of the environments
+        draws from); an unrefined one, or one whose refinement kept the
+        N4SID start, has none.
     """
     t0 = time.perf_counter()
     recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
@@ -279,7 +318,7 @@ def ssest(
     out = _fitresult(
         full,
         full.nominal[None],
-        None,
+        _delayed_covariance(fit, full, n, d),
         prob,
         vals,
         method="ssest" if refine_fit else "n4sid",

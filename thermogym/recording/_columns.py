@@ -49,6 +49,17 @@ def _canonical_unit(unit: str) -> str:
     return _UNIT_ALIASES.get(u.lower(), _UNIT_ALIASES.get(u, u))
 
 
+# Units that say nothing: a raw CSV without a sidecar gives its columns no unit, and a
+# FitResult identified from one stores "1" for its signals. Such a side cannot be checked
+# against the other, so it is not a conflict.
+_UNSPECIFIED_UNITS = frozenset({"1", "?", "unknown", "none", "n/a"})
+
+
+def _unit_unspecified(unit: str | None) -> bool:
+    """Whether ``unit`` says nothing (missing, empty, ``"1"``, ``"-"``, ``"unknown"``)."""
+    return unit is None or _canonical_unit(unit).lower() in _UNSPECIFIED_UNITS
+
+
 def _fmt_names(names: Iterable[str]) -> str:
     return "[" + ", ".join(repr(n) for n in names) + "]"
 

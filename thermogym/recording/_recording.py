@@ -30,6 +30,7 @@ from thermogym.recording._columns import (
     _first_true,
     _fmt_names,
     _readonly,
+    _unit_unspecified,
 )
 
 if TYPE_CHECKING:
@@ -502,7 +503,7 @@ class Recording:
         *,
         outputs: bool | Sequence[str] = True,
         finite: bool = False,
-    ) -> None:
+    ) -> tuple[str, ...]:
         """Check that this recording has the columns and units ``model`` needs.
 
         Parameters
@@ -514,6 +515,13 @@ class Recording:
         finite : bool
             Also require finite values in those columns (:meth:`check_values`).
 
+        Returns
+        -------
+        tuple of str
+            The needed columns whose units could not be checked because one
+            side leaves the unit unspecified (see :meth:`check_units`); empty
+            when every unit given on both sides agrees.
+
         Raises
         ------
         RecordingError
@@ -521,7 +529,7 @@ class Recording:
             expects and the columns the recording has.
         UnitError
             A column's unit in the metadata differs from the model's (a column
-            without a unit is accepted).
+            without a unit, or a model signal in ``"1"``, is accepted).
         UnknownNameError
             ``outputs`` names a signal that is not a model output.
         """
@@ -534,15 +542,63 @@ class Recording:
                 f" and outputs {_fmt_names(model.output_names)}; the recording has "
                 f"{_fmt_names(self._data)}"
             )
-        for s in needed:
-            unit = self._units.get(s.name)
-            if unit is not None and _canonical_unit(unit) != _canonical_unit(s.unit):
-                raise UnitError(
-                    f"column {s.name!r} of recording{self._label()} is in {unit!r}, model "
-                    f"{model.name!r} expects {s.unit!r}"
-                )
+        unchecked = self.check_units({s.name: s.unit for s in needed}, f"model {model.name!r}")
         if finite:
             self.check_values([s.name for s in needed])
+        return unchecked
+
+    def check_units(self, expected: Mapping[str, str | None], owner: str) -> tuple[str, ...]:
+        """Check the units of columns against the units a model or fit expects.
+
+        A unit that says nothing (none given, ``""``, ``"-"``, ``"1"`` as a
+        FitResult identified from a CSV without units stores, ``"unknown"``)
+        on either side cannot be checked and is accepted; a real conflict
+        (``"°C"`` against ``"K"``, ``"%"`` against ``"W"``) is refused.
+
+        Parameters
+        ----------
+        expected : mapping
+            Column name → the unit expected for it; names that are not
+            columns of this recording are skipped.
+        owner : str
+            Who expects the units, for the message (``"model 'ss'"``).
+
+        Returns
+        -------
+        tuple of str
+            The columns whose units were not checked because exactly one side
+            gives a unit (the other leaves it unspecified), in the order of
+            ``expected``.
+
+        Raises
+        ------
+        UnitError
+            A column's unit differs from the one expected; the message names
+            the column, both units and ``owner``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> rec = Recording(np.arange(3.0), {"Q1": [0.0, 50.0, 50.0]}, units={"Q1": "%"})
+        >>> rec.check_units({"Q1": "1"}, "model 'ss'")
+        ('Q1',)
+        >>> rec.check_units({"Q1": "%"}, "model 'ss'")
+        ()
+        """
+        unchecked = []
+        for name, want in expected.items():
+            if name not in self._data:
+                continue
+            have = self._units.get(name)
+            if have is None or want is None or _unit_unspecified(have) or _unit_unspecified(want):
+                if not (_unit_unspecified(have) and _unit_unspecified(want)):
+                    unchecked.append(name)
+            elif _canonical_unit(have) != _canonical_unit(want):
+                raise UnitError(
+                    f"column {name!r} of recording{self._label()} is in {have!r}, {owner} "
+                    f"expects {want!r}"
+                )
+        return tuple(unchecked)
 
     @staticmethod
     def _needed(model: Model, outputs: bool | Sequence[str]) -> list[Any]:

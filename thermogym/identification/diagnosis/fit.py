@@ -298,8 +298,15 @@ class FitProblem:
             if not (np.isfinite(P).all() and np.isfinite(y0[b]).all()):
                 out[b] = np.nan
                 continue
-            energy = np.sum((P * w[None, None, :]) ** 2, axis=(0, 2))  # per time step
-            tot = float(energy.sum())
+            # an unstable trial set (the optimiser's search passes through them) has free
+            # responses that overflow: it is a failed simulation (NaN: the flat penalty of
+            # _weighted), not a numpy warning on the console
+            with np.errstate(over="ignore", invalid="ignore"):
+                energy = np.sum((P * w[None, None, :]) ** 2, axis=(0, 2))  # per time step
+                tot = float(energy.sum())
+            if not math.isfinite(tot):
+                out[b] = np.nan
+                continue
             if tot <= 0.0:
                 continue
             c = np.cumsum(energy) / tot
@@ -526,7 +533,8 @@ def fit_model(
         return _outcome(problem, z_start, r, None, 1, 0, t0, True, "nothing to fit", False)
     if len(cands) > 1:
         R = problem.residuals(np.array(cands))
-        costs = 0.5 * np.sum(R**2, axis=1)
+        with np.errstate(over="ignore"):  # a start far off overflows: an infinite cost, last
+            costs = 0.5 * np.sum(R**2, axis=1)
         order = [int(i) for i in np.argsort(costs, kind="stable")]
         cands = [cands[i] for i in order[: max(1, n_refine)]]
     best: dict[str, Any] = {"z": cands[0], "cost": math.inf, "r": None}

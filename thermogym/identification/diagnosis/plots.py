@@ -9,7 +9,7 @@ Plotting lives here, outside the numerical modules, which never import it.
    after), with the bin means;
 3. the residual tests: autocorrelation and cross-correlation with the main
    input, with their bounds, before and after (as MATLAB's ``resid``);
-4. the ranked hypotheses: held-out mean NRMSE of each against the nominal.
+4. the ranked hypotheses: held-out mean fit (%) of each against the nominal.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from thermogym.identification.metrics import fit_text
 from thermogym.plotting import time_axis
 
 __all__ = ["report_figures"]
@@ -190,7 +191,7 @@ def fig_tests(rep: Any) -> bytes | None:
 
 
 def fig_hypotheses(rep: Any) -> bytes | None:
-    """Held-out mean NRMSE of each hypothesis against the nominal model."""
+    """Held-out mean fit (NRMSE fit, %) of each hypothesis against the nominal model."""
     hs = [h for h in rep.hypotheses if "validation_after" in h]
     if not hs:
         return None
@@ -204,13 +205,13 @@ def fig_hypotheses(rep: Any) -> bytes | None:
         _C_AUG if i == 0 and rep.best.get("effect") == hs[0]["effect"] else "0.6"
         for i in range(len(hs))
     ]
-    ax.barh(y, after, color=colors)
-    ax.axvline(before, color=_C_NOM, ls="--", label=f"nominal {before:.4f}")
+    ax.barh(y, [100.0 * a for a in after], color=colors)
+    ax.axvline(100.0 * before, color=_C_NOM, ls="--", label=f"nominal {fit_text(before)}")
     ax.set_yticks(y)
     ax.set_yticklabels(names, fontsize=8)
     lo = min([before, *[a for a in after if math.isfinite(a)]])
-    ax.set_xlim(max(lo - 0.05 * (1 - lo) - 0.01, -1.0), 1.0)
-    ax.set_xlabel("held-out mean NRMSE (1 = perfect)")
+    ax.set_xlim(100.0 * max(lo - 0.05 * (1 - lo) - 0.01, -1.0), 100.0)
+    ax.set_xlabel("held-out mean fit [%] (NRMSE fit, 100 = perfect)")
     ax.legend(fontsize=8, loc="lower right")
     ax.grid(alpha=0.3, axis="x")
     ax.set_title("hypotheses, ranked by held-out improvement with a BIC penalty", fontsize=10)

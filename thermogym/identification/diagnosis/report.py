@@ -42,6 +42,7 @@ from thermogym._checks import with_unit
 from thermogym._fileio import atomic_write, atomic_write_text, to_jsonable
 from thermogym.errors import ConfigError
 from thermogym.fitresult import FitResult
+from thermogym.identification.metrics import fit_text
 
 __all__ = ["DiagnosisReport"]
 
@@ -51,6 +52,13 @@ SCHEMA_VERSION = 2
 
 def _public(d: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in d.items() if not k.startswith("_")}
+
+
+def _fit(v: Any) -> str:
+    """An NRMSE fit (a fraction) as every command shows it: ``fit_text``, "–" when missing."""
+    if isinstance(v, int | float) and math.isfinite(v):
+        return fit_text(float(v))
+    return "–"
 
 
 def _f(v: Any, digits: int = 4) -> str:
@@ -168,7 +176,7 @@ class DiagnosisReport:
             n = self.baseline.get("nominal_validation", {}).get("mean", math.nan)
             lead += (
                 f"Nominal model inadequate: a plain ARX predicts the held-out data better "
-                f"(mean NRMSE {b:.3f} against {n:.3f}). "
+                f"(mean fit {fit_text(b)} against {fit_text(n)}). "
             )
         where = ", ".join(d["signal"] for d in self.located.get("signals", [])[:2])
         if named == ["none"]:
@@ -188,9 +196,9 @@ class DiagnosisReport:
             return lead + (
                 f"No missing physics named: the residual of {', '.join(dict.fromkeys(flagged))} "
                 "is not white, but no hypothesis explains it on held-out data and the nominal "
-                "model predicts them at least as well as a plain ARX (held-out mean NRMSE fit "
-                f"{n:.3f} against {b:.3f}): what is left is coloured noise or an effect outside "
-                "the catalogue."
+                "model predicts them at least as well as a plain ARX (held-out mean fit "
+                f"{fit_text(n)} against {fit_text(b)}): what is left is coloured noise or an "
+                "effect outside the catalogue."
             )
         if named == ["unexplained"]:
             return lead + (
@@ -245,7 +253,7 @@ class DiagnosisReport:
             )
         return lead + (
             f"Significant mismatch (mostly {where}): missing physics {' + '.join(parts)}; "
-            f"held-out mean NRMSE {before:.4f} → {after:.4f}.{extra}{doubt}{alt}"
+            f"held-out mean fit {fit_text(before)} → {fit_text(after)}.{extra}{doubt}{alt}"
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -312,10 +320,12 @@ class DiagnosisReport:
             rows.append(
                 [
                     o,
-                    _f(self.fit_before["train"].get(o, math.nan)),
-                    _f(b.get("fit_after", {}).get(o, math.nan)),
-                    _f(b.get("validation_before", self.fit_before["validation"]).get(o, math.nan)),
-                    _f(b.get("validation_after", {}).get(o, math.nan)),
+                    _fit(self.fit_before["train"].get(o, math.nan)),
+                    _fit(b.get("fit_after", {}).get(o, math.nan)),
+                    _fit(
+                        b.get("validation_before", self.fit_before["validation"]).get(o, math.nan)
+                    ),
+                    _fit(b.get("validation_after", {}).get(o, math.nan)),
                 ]
             )
         return rows
@@ -334,8 +344,8 @@ class DiagnosisReport:
                     h["effect"],
                     h.get("target", ""),
                     params if "error" not in h else h["error"][:60],
-                    _f(h.get("validation_before", {}).get("mean", math.nan)),
-                    _f(h.get("validation_after", {}).get("mean", math.nan)),
+                    _fit(h.get("validation_before", {}).get("mean", math.nan)),
+                    _fit(h.get("validation_after", {}).get("mean", math.nan)),
                     f"{100 * h.get('explained', 0.0):.0f} %",
                     _f(h.get("score", math.nan), 5),
                 ]
@@ -414,9 +424,9 @@ class DiagnosisReport:
                 "",
                 f"A plain {self.baseline.get('model', 'ARX')} fitted on the same training data "
                 f"({self.baseline.get('n_params', '?')} parameters) predicts the held-out data "
-                f"better: mean NRMSE {_f(self.baseline.get('validation', {}).get('mean'))} "
+                f"better: mean fit {_fit(self.baseline.get('validation', {}).get('mean'))} "
                 f"against the nominal model's "
-                f"{_f(self.baseline.get('nominal_validation', {}).get('mean'))}. What follows "
+                f"{_fit(self.baseline.get('nominal_validation', {}).get('mean'))}. What follows "
                 "stands on a model that misses more than one effect can explain.",
                 "",
             ]
@@ -481,7 +491,7 @@ class DiagnosisReport:
         elif b.get("effect") not in (None, "none"):
             parts += [f"## `{b['effect']}`", "", b.get("explanation", ""), ""]
         parts += [
-            "## Fit before and after (NRMSE, 1 = perfect)",
+            "## Fit before and after (NRMSE fit, %; 100 % = perfect)",
             "",
             table(
                 ["output", "train before", "train after", "held-out before", "held-out after"],

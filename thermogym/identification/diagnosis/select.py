@@ -57,7 +57,7 @@ from thermogym.identification.diagnosis.hypothesis import (
     merge_values,
 )
 from thermogym.identification.diagnosis.scoring import delta_ic, whitened_chi2
-from thermogym.identification.metrics import nrmse
+from thermogym.identification.metrics import fit_text, nrmse
 from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
 from thermogym.models.fastnet import fast_or_none
@@ -526,8 +526,8 @@ def _round(
             h = hs if hs.ok else h
         fitted.append(h)
         data.say(
-            f"{_added(h).label}: held-out ΔIC {h.delta_ic:.1f}, mean NRMSE "
-            f"{h.validation_after.get('mean', math.nan):.4f} ({h.seconds:.1f} s)"
+            f"{_added(h).label}: held-out ΔIC {h.delta_ic:.1f}, mean fit "
+            f"{fit_text(h.validation_after.get('mean', math.nan))} ({h.seconds:.1f} s)"
         )
     m = max(1, len(screened))
     oks = {id(h): passes(h, current, m, data) for h in fitted}

@@ -41,6 +41,7 @@ from thermogym.identification.diagnosis.select import (
     residuals_of,
     score_self,
 )
+from thermogym.identification.metrics import fit_text
 from thermogym.identification.residuals import ResidualTest, noise_sigma, residual_tests
 from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
@@ -319,8 +320,8 @@ def _stage_baseline(st: _Run) -> None:
     }
     if not st.arx["nominal_adequate"]:
         st.say(
-            f"nominal model inadequate: held-out mean NRMSE {nom['mean']:.3f} against a plain "
-            f"ARX's {fit['mean']:.3f}"
+            f"nominal model inadequate: held-out mean fit {fit_text(nom['mean'])} against a "
+            f"plain ARX's {fit_text(fit['mean'])}"
         )
 
 
