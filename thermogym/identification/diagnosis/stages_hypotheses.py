@@ -67,7 +67,15 @@ def _stage_hypotheses(st: _Run) -> None:
         st.data.course_baseline = lambda n: course_baseline(ctx, n)
     cands = candidates_for(st.ctx, list(st.opts["candidates"]) if st.opts["candidates"] else None)
     if st.opts["max_candidates"]:
-        cands = cands[: st.opts["max_candidates"]]
+        # the N a user asks for span the catalogue: a form's other places (a disturbance
+        # beside the heater as well as through the surroundings) come after every form's
+        # first, each group in the catalogue's order
+        forms: set[tuple[str, str]] = set()
+        first, more = [], []
+        for c in cands:
+            (more if (c.effect, c.form) in forms else first).append(c)
+            forms.add((c.effect, c.form))
+        cands = [*first, *more][: st.opts["max_candidates"]]
     st.candidates = cands
     st.say(f"{len(cands)} candidate effects and forms")
 
