@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 from thermogym.identification.diagnosis.context import Context, signatures
 from thermogym.identification.diagnosis.effects import CATALOGUE, candidates_for
-from thermogym.identification.diagnosis.hypothesis import Hypothesis
+from thermogym.identification.diagnosis.hypothesis import Candidate, Hypothesis
 from thermogym.identification.diagnosis.identify import intervals
 from thermogym.identification.diagnosis.proposers import course_baseline, generic_fix
 from thermogym.identification.diagnosis.run_state import _need, _Run
@@ -71,7 +71,8 @@ def _stage_hypotheses(st: _Run) -> None:
         # beside the heater as well as through the surroundings) come after every form's
         # first, each group in the catalogue's order
         forms: set[tuple[str, str]] = set()
-        first, more = [], []
+        first: list[Candidate] = []
+        more: list[Candidate] = []
         for c in cands:
             (more if (c.effect, c.form) in forms else first).append(c)
             forms.add((c.effect, c.form))
