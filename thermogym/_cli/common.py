@@ -279,6 +279,42 @@ def names(what: str = "column") -> Callable[[str], tuple[str, ...]]:
     return parse
 
 
+def name_values(what: str = "value") -> Callable[[str], dict[str, float]]:
+    """``type=`` for ``NAME=VALUE[,NAME=VALUE...]`` with finite numbers, each name once.
+
+    Examples
+    --------
+    >>> name_values("an offset")("P=0, T=20.5")
+    {'P': 0.0, 'T': 20.5}
+    """
+    expected = f"expected NAME=VALUE with {what} as a finite number"
+
+    def parse(text: str) -> dict[str, float]:
+        out: dict[str, float] = {}
+        for item in text.split(","):
+            name, sep, value = (s.strip() for s in item.partition("="))
+            if not sep or not name or not value:
+                raise argparse.ArgumentTypeError(
+                    f"{text!r}: item {item.strip()!r} is not of the form NAME=VALUE; "
+                    f"{expected} (several comma separated)"
+                )
+            try:
+                v = float(value)
+            except ValueError:
+                raise argparse.ArgumentTypeError(
+                    f"{text!r}: {value!r} is not a number; {expected}"
+                ) from None
+            if not math.isfinite(v):
+                raise argparse.ArgumentTypeError(f"{text!r}: {value} is not finite; {expected}")
+            if name in out:
+                raise argparse.ArgumentTypeError(f"{text!r} names {name!r} more than once")
+            out[name] = v
+        return out
+
+    parse.__name__ = "name_values"
+    return parse
+
+
 def choice_list(allowed: Sequence[str], what: str = "item") -> Callable[[str], tuple[str, ...]]:
     """``type=`` for a comma-separated list whose items are all in ``allowed``."""
     base = names(what)

@@ -20,6 +20,10 @@ from thermogym._cli.common import choice_list, names, positive, probability
 from thermogym._cli.data import add_data_options
 from thermogym.vocabulary import EFFECT_NAMES
 
+#: ``--x0`` choices: :data:`thermogym.identification.diagnosis.run.X0_POLICIES`, written out
+#: so that the options load without the diagnosis (tests/test_diagnose_x0.py checks they match).
+X0_POLICIES: tuple[str, ...] = ("auto", "estimate", "rest", "measured")
+
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Declare the options."""
@@ -90,6 +94,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         default=3,
         help="most effects a combination holds (default 3)",
+    )
+    p.add_argument(
+        "--x0",
+        choices=X0_POLICIES,
+        default="auto",
+        help="initial state of every recording in the fits: estimate (least squares on the "
+        "recording's outputs, as MATLAB's compare), rest (the model's own start: a plant at "
+        "rest; an identified ss/foptd settled at the first input, or at rest at its operating "
+        "point), measured (measured temperature states from their first samples); auto "
+        "(default): estimate, or rest for a generic model whose inputs are constant in every "
+        "training recording. The command prints which it used",
     )
     p.add_argument("--no-sparse", action="store_true", help="skip the sparse-regression fallback")
     p.add_argument("--quiet", action="store_true", help="print only the verdict")

@@ -65,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
         max_effects=args.max_effects,
         sparse=not args.no_sparse,
         progress=say,
+        x0=args.x0,
     )
     with plan:
         rep.save(plan.path("--out"))
@@ -76,6 +77,13 @@ def run(args: argparse.Namespace) -> int:
         if args.augmented_fit and rep.augmented_fit is not None:
             rep.augmented_fit.save(plan.path("--augmented-fit"))
     print(rep.verdict)
+    x0 = rep.nominal_fit.settings.get("x0")
+    how = {
+        "estimate": "estimated from each recording's outputs",
+        "rest": "the model's own start",
+        "measured": "measured states from their first samples",
+    }.get(str(x0), "")
+    print(f"initial state: {x0} ({how}; --x0 {args.x0})")
     for n in rep.notes:  # assumptions taken and warnings (extrapolation, units, resampling)
         print(f"note:   {n}")
     print(f"named:  {', '.join(rep.named_effects)}")

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import argparse
 
-from thermogym._cli.common import CliParser, number, seconds, whole
+from thermogym._cli.common import CliParser, name_values, number, seconds, whole
 from thermogym._cli.data import (
     add_data_options,
     add_prepare_option,
@@ -50,6 +50,37 @@ def _range(text: str) -> range:
     if lo < 1 or hi < lo or hi > 500:
         raise argparse.ArgumentTypeError(f"{text!r}: expected 1 <= A <= B <= 500 (model orders)")
     return range(lo, hi + 1)
+
+
+def add_offset_options(p: argparse.ArgumentParser) -> None:
+    """``--u-offset`` and ``--y-offset``: given operating-point values.
+
+    Shared by every identify method that takes ``--operating-point``. A named
+    signal's offset replaces what the mode gives it in every experiment; the
+    others keep the mode's values (so ``--operating-point none`` with offsets
+    is exactly the given values, zero for the rest). The names are checked
+    against the fit's inputs and outputs before any fitting.
+    """
+    what = (
+        "{kind} operating point(s) given, NAME=VALUE[,NAME=VALUE...] (finite, in the "
+        "signal's units): subtracted from every experiment instead of what --operating-point "
+        "gives that {kind} (the {kind}s not named keep the mode's value; with "
+        "--operating-point none: zero), and stored in the FitResult, so simulate, compare, "
+        "diagnose, virtual-sensor and firmware apply them unchanged"
+    )
+    p.add_argument(
+        "--u-offset",
+        type=name_values("an input offset"),
+        metavar="NAME=VALUE",
+        help=what.format(kind="input"),
+    )
+    p.add_argument(
+        "--y-offset",
+        type=name_values("an output offset"),
+        metavar="NAME=VALUE",
+        help=what.format(kind="output") + "; foptd's 'estimate' mode then fixes the output "
+        "offset instead of fitting it",
+    )
 
 
 def build_parser(method: str) -> argparse.ArgumentParser:
@@ -86,6 +117,7 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         "rls: default initial; n4sid: default auto, the better of none (absolute levels: a "
         "plant at rest at zero input) and mean (MATLAB's detrend) on held-out folds",
     )
+    add_offset_options(p)
     p.add_argument(
         "--x0",
         choices=X0_CHOICES,

@@ -74,6 +74,36 @@ def _signals(args: argparse.Namespace, rec: Any) -> tuple[list[str], list[str]]:
     return inputs, outputs
 
 
+def offsets_option(
+    args: argparse.Namespace, inputs: list[str] | None, outputs: list[str] | None
+) -> dict[str, dict[str, float]] | None:
+    """``--u-offset``/``--y-offset`` as the ``offsets=`` of the fits, names checked.
+
+    ``inputs``/``outputs`` ``None``: not known yet (their names are checked
+    once the recording's roles are read). Returns ``None`` without offsets.
+    """
+    given = {"inputs": args.u_offset or {}, "outputs": args.y_offset or {}}
+    for option, part, names, what in (
+        ("--u-offset", "inputs", inputs, "input"),
+        ("--y-offset", "outputs", outputs, "output"),
+    ):
+        bad = [c for c in given[part] if names is not None and c not in names]
+        if bad:
+            raise ConfigError(
+                f"{option} names {bad[0]!r}, which is not an {what} of the fit; expected "
+                f"one of {list(names or [])} (--{what}s)"
+            )
+    if not given["inputs"] and not given["outputs"]:
+        return None
+    return given
+
+
+def _print_offsets(offsets: dict[str, dict[str, float]] | None) -> None:
+    if offsets:
+        text = ", ".join(f"{c}={v:g}" for part in offsets.values() for c, v in part.items())
+        print(f"operating point: given offsets {text} (the other signals: the mode's)")
+
+
 def _report(fit: Any, x0: str) -> None:
     how = {
         "auto": "estimated from each recording's outputs",
@@ -128,6 +158,12 @@ def run(method: str, args: argparse.Namespace) -> int:
     args.expect = parse_expect_sign(args.expect_sign)  # refused early
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
+    offsets_option(args, _cols(args.inputs), _cols(args.outputs))  # names given: refused early
+    if getattr(args, "from_fit", None) and (args.u_offset or args.y_offset):
+        raise ConfigError(
+            "--u-offset/--y-offset with --from-fit: the warm start keeps the operating point "
+            "of the fit it starts from; expected one or the other"
+        )
     decimate_option(args)
     early_model(args)
     if getattr(args, "delays", None):
@@ -180,6 +216,8 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     inputs, outputs = _signals(args, train[0])
     dist = _cols(args.disturbances)
     check_expect_names(args.expect, [*inputs, *(dist or [])], outputs)
+    args.offsets = offsets_option(args, inputs, outputs)
+    _print_offsets(args.offsets)
     max_delay = getattr(args, "max_delay_s", None)
     if max_delay is not None:
         span = min(r.duration for r in train)
@@ -200,6 +238,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             max_delay_s=args.max_delay_s,
             criterion=args.criterion,
             operating_point_mode=args.operating_point or "estimate",
+            offsets=args.offsets,
             validate=vals,
         )
         fit = res.fit
@@ -259,9 +298,13 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
                 / train[0].dt
             ).astype(int)
             print(f"  delays from a batch FOPTD fit of {train[0].experiment_id}: {d.tolist()}")
+        given = args.offsets or {"inputs": {}, "outputs": {}}
         est = RecursiveFOPTD(
             exo,
             outputs,
+            # a given offset, else the first sample (NaN)
+            u_op=[given["inputs"].get(c, np.nan) for c in exo] if args.offsets else None,
+            y_op=[given["outputs"].get(c, np.nan) for c in outputs] if args.offsets else None,
             dt=train[0].dt,
             delays=d,
             disturbances=dis,
@@ -300,6 +343,7 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
         "feedthrough": args.feedthrough,
         "x0": "zero" if args.x0 == "zero" else "estimate",
     }
+    offsets = args.offsets
     cv = None
     order = args.order
     orders = args.orders if args.order is None else range(args.order, args.order + 1)
@@ -322,8 +366,8 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
             # every fold about its whole recording's operating point (a part cut out of a
             # run that starts at rest does not itself start at rest): the same cuts, made
             # in the deviations
-            dev_folds = make_folds(deviation_recordings(train, inputs, outputs, mode),
-                                   args.folds or 2, ins + dis)[0]  # fmt: skip
+            dev = deviation_recordings(train, inputs, outputs, mode, offsets=offsets)
+            dev_folds = make_folds(dev, args.folds or 2, ins + dis)[0]
             assert dev_folds is not None
             cvs[mode] = cross_validate_order(
                 dev_folds,
@@ -374,6 +418,7 @@ def _run_n4sid(args, train, vals, inputs, outputs, dist, plots, figures):  # typ
         order,
         orders=orders,
         noise_model=not args.no_noise_model,
+        offsets=offsets,
         validate=vals,
         **common,
     )

@@ -28,7 +28,7 @@ from thermogym._cli.data import (
     add_data_options,
     add_prepare_option,
 )
-from thermogym._cli.identify_linear import X0_CHOICES
+from thermogym._cli.identify_linear import X0_CHOICES, add_offset_options
 
 METHODS = ("arx", "armax", "oe", "bj", "sopdt", "ssest", "auto")
 
@@ -66,6 +66,7 @@ def build_parser(method: str) -> argparse.ArgumentParser:
         help="subtracted from each experiment; auto (default): 'mean' or 'none', whichever "
         "cross-validates better with an ARX model",
     )
+    add_offset_options(p)
     p.add_argument(
         "--folds",
         type=whole(2, 100, what="a number of folds"),

@@ -15,7 +15,15 @@ from thermogym._cli.data_run import (
     load_recordings,
     parse_prepare,
 )
-from thermogym._cli.identify_linear_run import _cols, _plot_fits, _report, _warn, early_model
+from thermogym._cli.identify_linear_run import (
+    _cols,
+    _plot_fits,
+    _print_offsets,
+    _report,
+    _warn,
+    early_model,
+    offsets_option,
+)
 from thermogym._cli.identify_linear_run import _signals as signals
 from thermogym.errors import ConfigError, IdentificationError
 
@@ -79,9 +87,17 @@ def _early(method: str, args: argparse.Namespace) -> None:
 
 
 def choose_operating_point(
-    train: list[Any], inputs: list[str], outputs: list[str], dist: list[str] | None, folds: int
+    train: list[Any],
+    inputs: list[str],
+    outputs: list[str],
+    dist: list[str] | None,
+    folds: int,
+    offsets: dict[str, dict[str, float]] | None = None,
 ) -> tuple[str, dict[str, float]]:
-    """``"mean"`` or ``"none"``: whichever ARX cross-validates better on the training data."""
+    """``"mean"`` or ``"none"``: whichever ARX cross-validates better on the training data.
+
+    Given ``offsets`` hold in both (they replace the mode's values of their signals).
+    """
     scores = {}
     for mode in ("mean", "none"):
         try:
@@ -93,6 +109,7 @@ def choose_operating_point(
                 folds=folds,
                 disturbances=dist,
                 operating_point_mode=mode,
+                offsets=offsets,
             )
             scores[mode] = float(r.selection["order_scores"][r.selection["chosen_order"] - 1])
         except (IdentificationError, ConfigError):
@@ -109,6 +126,7 @@ def run(method: str, args: argparse.Namespace) -> int:
     args.expect = parse_expect_sign(args.expect_sign)  # refused early
     prep = parse_prepare(args.prepare)
     _cols(args.inputs), _cols(args.outputs), _cols(args.disturbances)  # refused early
+    offsets_option(args, _cols(args.inputs), _cols(args.outputs))  # names given: refused early
     _early(method, args)
     early_model(args)
     plan = plan_outputs(
@@ -124,6 +142,8 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     inputs, outputs = signals(args, train[0])
     dist = _cols(args.disturbances)
     check_expect_names(args.expect, [*inputs, *(dist or [])], outputs)
+    offsets = offsets_option(args, inputs, outputs)
+    _print_offsets(offsets)
     max_delay = getattr(args, "max_delay_s", None)
     if max_delay is not None:  # as foptd: a delay longer than the data cannot be told
         span = min(r.duration for r in train)
@@ -134,7 +154,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             )
     op = args.operating_point
     if op == "auto":
-        op, scores = choose_operating_point(train, inputs, outputs, dist, args.folds)
+        op, scores = choose_operating_point(train, inputs, outputs, dist, args.folds, offsets)
         print(
             f"operating point: {op} (ARX cross-validation: mean {100 * scores['mean']:.1f} %, "
             f"none {100 * scores['none']:.1f} %)"
@@ -142,6 +162,7 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     common: dict[str, Any] = {
         "disturbances": dist,
         "operating_point_mode": op,
+        "offsets": offsets,
         "validate": vals,
     }
     if method in ("arx", "armax", "oe", "bj"):

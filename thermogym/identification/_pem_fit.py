@@ -58,6 +58,7 @@ def _problem(
     outputs: Sequence[str] | str,
     disturbances: Sequence[str] | None,
     operating_point_mode: str,
+    offsets: Mapping[str, Any] | None = None,
 ) -> N4SIDProblem:
     return prepare_problem(
         recordings,
@@ -66,6 +67,7 @@ def _problem(
         disturbances=disturbances,
         operating_point_mode=operating_point_mode,
         min_samples=8,
+        offsets=offsets,
     )
 
 
@@ -81,6 +83,7 @@ def _sub_problem(prob: N4SIDProblem, us: list, ys: list) -> N4SIDProblem:  # typ
         prob.units,
         prob.recordings,
         prob.mode,
+        prob.offsets,
     )
 
 
@@ -151,7 +154,7 @@ def _fit_family(
                 **{k: v[j : j + 1].tolist() for k, v in kw.items()},
             )
             th0 = _start(family, prob.us, ys, o, j)
-            data = _Data(list(prob.us), [y[:, None] for y in ys], prob.dt, _offset(prob.mode))
+            data = _Data(list(prob.us), [y[:, None] for y in ys], prob.dt, _offset(prob))
             sol = _solve(sub, th0, np.arange(th0.size), data, focus, max_nfev=max_nfev)
             th, cj = sol.theta, sol.cov
             info["outputs"][out] = {"sigma2": sol.sigma2, "nfev": sol.nfev, "status": sol.status}
@@ -184,11 +187,8 @@ def _fitresult(
     exo = prob.inputs + prob.disturbances
     st = dict(settings)
     st["operating_point"] = {
+        **prob.stored_operating_point(),
         "mode": st.get("operating_point_mode", "mean"),
-        "inputs": {c: float(np.mean([op[0][k] for op in prob.ops])) for k, c in enumerate(exo)},
-        "outputs": {
-            c: float(np.mean([op[1][k] for op in prob.ops])) for k, c in enumerate(prob.outputs)
-        },
     }
     st.setdefault("x0", "estimate")
     if isinstance(model, StateSpaceModel):  # the state space carries its operating point

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,6 +25,9 @@ from thermogym.models._linear_kernels import _ss_predict_kernel, _ss_simulate_ke
 from thermogym.models.base import Model
 from thermogym.models.linear import StateSpaceModel
 from thermogym.models.process import discrete_realization
+
+if TYPE_CHECKING:
+    from thermogym.identification.n4sid import N4SIDProblem
 
 __all__ = ["simulation_fit"]
 
@@ -80,8 +84,8 @@ class _Data:
     offset: bool = False  # a constant output offset per experiment besides x0 (see below)
 
 
-def _offset(mode: str) -> bool:
-    """Whether simulation-error fits about operating point ``mode`` estimate an output offset.
+def _offset(prob: N4SIDProblem) -> bool:
+    """Whether simulation-error fits of an N4SIDProblem estimate an output offset.
 
     Only about a record's mean: the mean of a record that does not average to
     equilibrium (it starts from rest, or ends in a transient) is not the
@@ -89,8 +93,9 @@ def _offset(mode: str) -> bool:
     cannot hold. The other modes subtract a rest value (``"rest"``,
     ``"initial"``) or nothing (``"none"``): there the level carries the static
     gain, and a free offset lets the model trade the one against the other.
+    Nor when an output offset is given: the user has fixed the output level.
     """
-    return mode == "mean"
+    return bool(prob.mode == "mean" and not prob.offsets["outputs"])
 
 
 def _residual_batch(

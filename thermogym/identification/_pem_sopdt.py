@@ -33,6 +33,7 @@ def sopdt(
     max_delay_s: float | None = None,
     disturbances: Sequence[str] | None = None,
     operating_point_mode: str = "mean",
+    offsets: Mapping[str, Any] | None = None,
     validate: Recording | Sequence[Recording] = (),
     max_nfev: int = 100,
     expect: Mapping[str, int] | None = None,
@@ -47,7 +48,7 @@ def sopdt(
 
     Parameters
     ----------
-    recordings, inputs, outputs, disturbances, operating_point_mode, validate
+    recordings, inputs, outputs, disturbances, operating_point_mode, offsets, validate
         As :func:`pem`.
     max_delay_s : float, optional
         Largest delay [s] (default: a tenth of the longest experiment).
@@ -72,7 +73,7 @@ def sopdt(
     [0.5, 80.0, 15.0, 6.0]
     """
     t0 = time.perf_counter()
-    prob = _problem(recordings, inputs, outputs, disturbances, operating_point_mode)
+    prob = _problem(recordings, inputs, outputs, disturbances, operating_point_mode, offsets)
     vals = [validate] if isinstance(validate, Recording) else list(validate)
     final, th, cov, info = _sopdt_fit(prob, max_delay_s, max_nfev)
     settings = {
@@ -130,7 +131,7 @@ def _sopdt_fit(
              for n in names]
         )  # fmt: skip
         hi = np.array([max_delay_s if n.startswith("tau_") else np.inf for n in names])
-        data = _Data(list(prob.us), [y[:, jo : jo + 1] for y in prob.ys], dt, _offset(prob.mode))
+        data = _Data(list(prob.us), [y[:, jo : jo + 1] for y in prob.ys], dt, _offset(prob))
         best: _Solution | None = None
         Tsum = T10[jo] + T20[jo]
         for t1, t2, tau in (

@@ -28,7 +28,7 @@ experiment (``x0="estimate"``, as MATLAB's ``compare``) or zero.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from thermogym._checks import integer
 from thermogym.errors import ConfigError, IdentificationError
 from thermogym.identification.advice import FitWarning, check_order, parsimonious_index
-from thermogym.identification.linear_fit import operating_point
+from thermogym.identification.linear_fit import offset_arrays, operating_point
 from thermogym.identification.metrics import nrmse, train_validation_accuracy
 from thermogym.identification.n4sid import N4SIDProblem, n4sid_decompose, prepare_problem
 from thermogym.recording import Recording
@@ -357,6 +357,8 @@ def deviation_recordings(
     inputs: Sequence[str] | str,
     outputs: Sequence[str] | str,
     operating_point_mode: str,
+    *,
+    offsets: Mapping[str, Any] | None = None,
 ) -> list[Recording]:
     """Each recording minus its own operating point, for folds cut from it.
 
@@ -367,6 +369,8 @@ def deviation_recordings(
     (:func:`make_folds`, :func:`split_recording`) and pass
     ``deviations=True`` to :func:`cross_validate_order`. Other columns are
     kept as they are; ``meta["operating_point"]`` holds what was subtracted.
+    ``offsets`` are given values that replace the mode's
+    (:func:`~thermogym.identification.linear_fit.check_offsets`).
 
     Examples
     --------
@@ -378,6 +382,7 @@ def deviation_recordings(
     recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
     ins = [inputs] if isinstance(inputs, str) else list(inputs)
     outs = [outputs] if isinstance(outputs, str) else list(outputs)
+    given = offset_arrays(offsets, ins, outs)
     out = []
     for rec in recs:
         missing = [c for c in ins + outs if c not in rec.columns]
@@ -388,7 +393,7 @@ def deviation_recordings(
             )
         u = np.column_stack([np.asarray(rec[c], dtype=float) for c in ins])
         y = np.column_stack([np.asarray(rec[c], dtype=float) for c in outs])
-        u_op, y_op = operating_point(u, y, operating_point_mode)
+        u_op, y_op = operating_point(u, y, operating_point_mode, given)
         assert y_op is not None
         cols = {c: np.asarray(rec[c]) for c in rec.columns}
         cols.update({c: u[:, k] - u_op[k] for k, c in enumerate(ins)})
@@ -448,6 +453,7 @@ def cross_validate_order(
     operating_point_mode: str = "none",
     tolerance: float = 1e-3,
     deviations: bool = False,
+    offsets: Mapping[str, Any] | None = None,
 ) -> OrderCV:
     """Choose the N4SID order by k-fold cross-validation over experiments.
 
@@ -475,6 +481,10 @@ def cross_validate_order(
         already (:func:`deviation_recordings`, then cut): nothing more is
         subtracted (``operating_point_mode`` is only recorded) and an input
         held constant (a step from rest) is accepted.
+    offsets : mapping, optional
+        Given operating-point values that replace the mode's (as
+        :func:`~thermogym.identification.n4sid.n4sid`; not used with
+        ``deviations``: give them to :func:`deviation_recordings`).
 
     Returns
     -------
@@ -508,6 +518,7 @@ def cross_validate_order(
             disturbances=disturbances,
             operating_point_mode="none" if deviations else operating_point_mode,
             step_inputs=True if deviations else None,
+            offsets=None if deviations else offsets,
         )
         for f in fl
     ]

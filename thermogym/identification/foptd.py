@@ -46,7 +46,7 @@ the few lines here.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -60,9 +60,11 @@ from thermogym.fitresult import FitResult
 from thermogym.identification.advice import FitWarning, check_fit
 from thermogym.identification.linear_fit import (
     OPERATING_POINTS,
+    check_offsets,
     data_entries,
     evaluate_fit,
     exogenous_roles,
+    offset_arrays,
     operating_point,
     signal_arrays,
     signal_ranges,
@@ -358,15 +360,24 @@ def _oe_solve(
     d: NDArray[np.int64],
     a: float,
     free: bool,
+    fixed_c: bool = False,
 ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
-    """Mean squared output error, ``[b…, c, z_e…]`` and the design matrix at pole ``a``."""
+    """Mean squared output error, ``[b…, c, z_e…]`` and the design matrix at pole ``a``.
+
+    ``fixed_c``: the offset ``c`` is given (``y`` is already referred to it);
+    its column is left out of the fit and ``c`` is returned as 0.
+    """
     X = _oe_columns(us, d, a, free)
+    if fixed_c:
+        X[:, d.size] = 0.0  # no constant: c = 0 (the pinv below gives the zero column 0)
     # normal equations of the scaled columns (a handful of unknowns, many rows)
     G = X.T @ X
     scale = np.sqrt(np.maximum(np.diag(G), 1e-300))
     Gs = G / np.outer(scale, scale)
     rhs = (X.T @ y) / scale
     try:
+        if fixed_c:  # a zero column: solve without it
+            raise np.linalg.LinAlgError
         th = np.linalg.solve(Gs, rhs) / scale
         if not np.isfinite(th).all():
             raise np.linalg.LinAlgError
@@ -382,6 +393,7 @@ def _oe_search(
     d: NDArray[np.int64],
     free: bool,
     xatol: float = 1e-5,
+    fixed_c: bool = False,
 ) -> tuple[float, float, float]:
     """Pole of the best output-error fit: ``(a, mse, curvature of the rss in ln T)``.
 
@@ -391,7 +403,7 @@ def _oe_search(
     lo, hi = np.log(0.1), np.log(10.0 * n_max)
 
     def loss(lnT: float) -> float:
-        return _oe_solve(us, y, d, float(np.exp(-np.exp(-lnT))), free)[0]
+        return _oe_solve(us, y, d, float(np.exp(-np.exp(-lnT))), free, fixed_c)[0]
 
     res = minimize_scalar(loss, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
     x = float(res.x)
@@ -470,8 +482,15 @@ def _fit_output_estimate(
     criterion: str,
     name: str,
     free: bool,
+    offset: float | None = None,
 ) -> _Estimated:
-    """FOPTD of one output by output error with an offset and a steady or free start."""
+    """FOPTD of one output by output error with an offset and a steady or free start.
+
+    ``offset``: the output at rest at ``u_op``, given instead of fitted.
+    """
+    fixed_c = offset is not None
+    if fixed_c:
+        ys = [yy - offset for yy in ys]
     y = np.concatenate(ys)
     m = us[0].shape[1]
     if np.ptp(y) <= 1e-12 * max(1.0, float(np.abs(y).max())):
@@ -486,7 +505,7 @@ def _fit_output_estimate(
         if criterion == "equation":
             a, mse_eq = _equation_pole(us, ys, trial)
             return mse_eq if 0.0 < a < 1.0 else float("inf")
-        return _oe_search(us, y, trial, free, xatol=1e-2)[1]
+        return _oe_search(us, y, trial, free, xatol=1e-2, fixed_c=fixed_c)[1]
 
     d = np.full(m, int(delays[0]), dtype=np.int64)
     profile = np.full((m, delays.size), np.inf)
@@ -527,10 +546,10 @@ def _fit_output_estimate(
     for k in order:
         trial = d.copy()
         trial[last] = delays[k]
-        a, mse, curv = _oe_search(us, y, trial, free)
+        a, mse, curv = _oe_search(us, y, trial, free, fixed_c=fixed_c)
         a_eq = _equation_pole(us, ys, trial)[0]
         if 0.0 < a_eq < 1.0:
-            mse_eq = _oe_solve(us, y, trial, a_eq, free)[0]
+            mse_eq = _oe_solve(us, y, trial, a_eq, free, fixed_c)[0]
             if mse_eq < mse:  # the search missed the equation-error pole's basin
                 a, mse = a_eq, mse_eq
         if criterion == "simulation" and np.isfinite(mse):
@@ -544,8 +563,8 @@ def _fit_output_estimate(
             "integrate, or not respond to the inputs — check the data and the delay range"
         )
     a, mse, curv, d = found
-    _, th, X = _oe_solve(us, y, d, a, free)
-    b, c = th[:m], float(th[m])
+    _, th, X = _oe_solve(us, y, d, a, free, fixed_c)
+    b, c = th[:m], float(th[m]) + (offset or 0.0)
     identifiable = True
     if free:
         # an initial lag is told from the gains only if the input-driven columns do not
@@ -678,6 +697,7 @@ def fit_foptd(
     min_delay: int = 0,
     criterion: str = "simulation",
     operating_point_mode: str = "estimate",
+    offsets: Mapping[str, Any] | None = None,
     validate: Recording | Sequence[Recording] = (),
 ) -> FOPTDResult:
     """Fit a set of FOPTD transfer functions (paper 000, section 4.1) to recordings.
@@ -711,6 +731,13 @@ def fit_foptd(
         (paper 000: the initial values) and ``"mean"`` take the experiment
         to start in a steady state at its first input; ``"rest"`` and
         ``"none"`` at rest with zero input (a heater switched on at ``t = 0``).
+    offsets : mapping, optional
+        Given operating point ``{"inputs": {NAME: VALUE}, "outputs": {NAME:
+        VALUE}}`` (:func:`~thermogym.identification.linear_fit.check_offsets`):
+        replaces the mode's value of each signal named, in every experiment;
+        with ``"estimate"`` a given output offset is the output at rest at the
+        inputs' operating point, fixed instead of fitted. Stored in the
+        FitResult as given.
     validate : Recording or sequence
         Recordings for validation metrics.
 
@@ -752,6 +779,8 @@ def fit_foptd(
         )
     if criterion not in CRITERIA:
         raise ConfigError(f"criterion is {criterion!r}; expected one of {CRITERIA}")
+    given_offsets = check_offsets(offsets, inputs, outputs)  # refused before any work
+    given = offset_arrays(given_offsets, inputs, outputs)
     exps = signal_arrays(
         recordings,
         inputs,
@@ -778,14 +807,18 @@ def fit_foptd(
     order = [inputs.index(c) for c in ins + dis]  # model column order: inputs, disturbances
     delays = np.arange(int(min_delay), int(max_delay) + 1, dtype=np.int64)
     if operating_point_mode == "estimate":
-        u_ref = np.mean(np.concatenate([e.u for e in exps]), axis=0)[order]
+        u_ref = np.mean(np.concatenate([e.u for e in exps]), axis=0)
+        if given is not None:  # a given input offset is the reference of its input
+            u_ref = np.where(np.isfinite(given[0]), given[0], u_ref)
+        u_ref = u_ref[order]
         us = [e.u[:, order] - u_ref for e in exps]
         fits, y0_list, z0, starts = [], [], [], {}
         for j, name in enumerate(outputs):
             yj = [e.y[:, j] for e in exps]
-            tied = _fit_output_estimate(us, yj, delays, criterion, name, free=False)
+            c_given = given_offsets["outputs"].get(name)
+            tied = _fit_output_estimate(us, yj, delays, criterion, name, False, c_given)
             try:
-                loose = _fit_output_estimate(us, yj, delays, criterion, name, free=True)
+                loose = _fit_output_estimate(us, yj, delays, criterion, name, True, c_given)
             except IdentificationError:
                 loose = tied
             est = loose if _prefer_free(tied, loose) else tied
@@ -806,7 +839,7 @@ def fit_foptd(
     else:
         us, ys, ops = [], [], []
         for e in exps:
-            uo, yo = operating_point(e.u, e.y, operating_point_mode)
+            uo, yo = operating_point(e.u, e.y, operating_point_mode, given)
             assert yo is not None
             us.append((e.u - uo)[:, order])
             ys.append(e.y - yo)
@@ -821,6 +854,10 @@ def fit_foptd(
         u_op = np.mean([o[0] for o in ops], axis=0)
         y0 = np.mean([yo - K @ (uo - u_op) for uo, yo in ops], axis=0)
         extra_settings = {}
+    # a given offset is stored as given (the means above equal it up to rounding)
+    exo_names = ins + dis
+    u_op = np.array([given_offsets["inputs"].get(c, u_op[i]) for i, c in enumerate(exo_names)])
+    y0 = np.array([given_offsets["outputs"].get(c, y0[j]) for j, c in enumerate(outputs)])
     seconds = time.perf_counter() - t_start
     rec0 = exps[0].recording
     units = {c: rec0.units[c] for c in ins + dis + outputs if c in rec0.units}
@@ -855,6 +892,7 @@ def fit_foptd(
             "mode": operating_point_mode,
             "inputs": {c: float(u_op[i]) for i, c in enumerate(exo)},
             "outputs": {c: float(y0[j]) for j, c in enumerate(outputs)},
+            **({"given": given_offsets} if given is not None else {}),
         },
         **extra_settings,
         "loss": {c: f.loss for c, f in zip(outputs, fits, strict=True)},

@@ -8,8 +8,12 @@
   experiment's first sample (paper 000, section 4.1: "the initial temperature
   of the measurements has to be subtracted"), ``"mean"`` its means (MATLAB's
   ``detrend``), ``"none"`` zero (data already prepared, e.g. the spindle's
-  temperature rises above ambient). The FitResult stores the mode and the
-  training values in ``settings["operating_point"]``.
+  temperature rises above ambient). Given *offsets* (:func:`check_offsets`,
+  ``offsets={"inputs": {"P": 0.0}, "outputs": {"T": 20.0}}``) replace the
+  mode's values of the signals they name, in every experiment; the others
+  keep the mode's (mode ``"none"`` with offsets: the given values, zero for
+  the rest). The FitResult stores the mode, the training values and the
+  given offsets (``"given"``) in ``settings["operating_point"]``.
 * :func:`predict` simulates (or predicts ``k_step`` ahead) an ``ss`` or
   ``foptd`` FitResult on a recording: the model's own operating point (stored
   in the fit's ``model_config``; older ``ss`` fits keep it in the settings) or
@@ -47,10 +51,12 @@ __all__ = [
     "X0_CHOICES",
     "Experiment",
     "Prediction",
+    "check_offsets",
     "data_entries",
     "evaluate_fit",
     "exogenous_roles",
     "fit_model",
+    "offset_arrays",
     "operating_point",
     "predict",
     "predict_fit",
@@ -172,8 +178,98 @@ def signal_arrays(
     return out
 
 
+def check_offsets(
+    offsets: Mapping[str, Any] | None, inputs: Sequence[str], outputs: Sequence[str]
+) -> dict[str, dict[str, float]]:
+    """Given operating-point offsets, checked against a fit's signals.
+
+    Parameters
+    ----------
+    offsets : mapping or None
+        ``{"inputs": {NAME: VALUE}, "outputs": {NAME: VALUE}}`` (either part
+        may be left out); the values in the signals' units.
+    inputs, outputs : sequence of str
+        The fit's exogenous and output columns.
+
+    Returns
+    -------
+    dict
+        ``{"inputs": {...}, "outputs": {...}}`` with float values (empty
+        dicts for ``None``).
+
+    Raises
+    ------
+    ConfigError
+        An unknown key, a name that is not among ``inputs``/``outputs``, or
+        a value that is not a finite number.
+
+    Examples
+    --------
+    >>> check_offsets({"outputs": {"T": 20}}, ["P"], ["T"])
+    {'inputs': {}, 'outputs': {'T': 20.0}}
+    >>> check_offsets({"outputs": {"T": "warm"}}, ["P"], ["T"])
+    Traceback (most recent call last):
+    ...
+    thermogym.errors.ConfigError: output offset of 'T' is 'warm'; expected a finite number
+    """
+    out: dict[str, dict[str, float]] = {"inputs": {}, "outputs": {}}
+    if offsets is None:
+        return out
+    if not isinstance(offsets, Mapping):
+        raise ConfigError(
+            f"offsets is a {type(offsets).__name__}; expected a mapping "
+            '{"inputs": {NAME: VALUE}, "outputs": {NAME: VALUE}}'
+        )
+    extra = [k for k in offsets if k not in out]
+    if extra:
+        raise ConfigError(f"offsets has key(s) {extra}; expected 'inputs' and/or 'outputs'")
+    for part, names, what in (("inputs", inputs, "input"), ("outputs", outputs, "output")):
+        given = offsets.get(part) or {}
+        if not isinstance(given, Mapping):
+            raise ConfigError(
+                f"offsets[{part!r}] is a {type(given).__name__}; expected a mapping NAME -> value"
+            )
+        for name, value in given.items():
+            if name not in names:
+                raise ConfigError(
+                    f"{what} offset names {name!r}, which is not an {what} of the fit; "
+                    f"expected one of {list(names)}"
+                )
+            try:
+                v = float(value)
+            except (TypeError, ValueError):
+                v = float("nan")
+            if isinstance(value, bool) or not np.isfinite(v):
+                raise ConfigError(
+                    f"{what} offset of {name!r} is {value!r}; expected a finite number"
+                )
+            out[part][str(name)] = v
+    return out
+
+
+def offset_arrays(
+    offsets: Mapping[str, Any] | None, inputs: Sequence[str], outputs: Sequence[str]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """Given offsets as arrays in column order, NaN where none is given (``None``: none).
+
+    Examples
+    --------
+    >>> offset_arrays({"inputs": {"b": 1.0}}, ["a", "b"], ["y"])
+    (array([nan,  1.]), array([nan]))
+    """
+    chk = check_offsets(offsets, inputs, outputs)
+    if not chk["inputs"] and not chk["outputs"]:
+        return None
+    u = np.array([chk["inputs"].get(c, np.nan) for c in inputs], dtype=float)
+    y = np.array([chk["outputs"].get(c, np.nan) for c in outputs], dtype=float)
+    return u, y
+
+
 def operating_point(
-    u: NDArray[np.float64], y: NDArray[np.float64] | None, mode: str
+    u: NDArray[np.float64],
+    y: NDArray[np.float64] | None,
+    mode: str,
+    given: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     """Operating point ``(u_op, y_op)`` of one experiment.
 
@@ -182,12 +278,19 @@ def operating_point(
     u : ndarray, shape (T, m)
     y : ndarray, shape (T, p) or None
     mode : {"none", "initial", "mean", "rest"}
+    given : (ndarray (m,), ndarray (p,)), optional
+        Given offsets (:func:`offset_arrays`): a finite entry replaces the
+        mode's value of its signal.
 
     Examples
     --------
     >>> u0, y0 = operating_point(np.array([[1.0], [3.0]]), np.array([[5.0], [7.0]]), "mean")
     >>> u0.tolist(), y0.tolist()
     ([2.0], [6.0])
+    >>> given = (np.array([0.0]), np.array([np.nan]))  # the input's given, the output's not
+    >>> u0, y0 = operating_point(np.array([[1.0], [3.0]]), np.array([[5.0], [7.0]]), "mean", given)
+    >>> u0.tolist(), y0.tolist()
+    ([0.0], [6.0])
     """
     if mode not in OPERATING_POINTS:
         raise ConfigError(f"operating_point is {mode!r}; expected one of {OPERATING_POINTS}")
@@ -202,8 +305,16 @@ def operating_point(
         return np.asarray(a.mean(axis=0), dtype=float)
 
     if mode == "rest":  # inputs from zero, outputs from their first sample
-        return pick(u, "none"), pick(y, "initial")  # type: ignore[return-value]
-    return pick(u, mode), pick(y, mode)  # type: ignore[return-value]
+        u_op, y_op = pick(u, "none"), pick(y, "initial")
+    else:
+        u_op, y_op = pick(u, mode), pick(y, mode)
+    if given is not None:  # the given offsets replace the mode's values of their signals
+        gu, gy = given
+        assert u_op is not None
+        u_op = np.where(np.isfinite(gu), gu, u_op)
+        if y_op is not None:
+            y_op = np.where(np.isfinite(gy), gy, y_op)
+    return u_op, y_op  # type: ignore[return-value]
 
 
 def _settings_op(fit: FitResult) -> dict[str, Any] | None:
@@ -390,8 +501,10 @@ def predict(
         of referring every experiment to its initial values). ``"auto"``:
         the recording's for fits made in the modes ``"initial"`` and
         ``"rest"`` (the model describes deviations from each experiment's
-        start), the fit's otherwise. Fits whose offsets were estimated (mode
-        ``"estimate"``) and recordings without outputs always use the fit's.
+        start), the fit's otherwise. Offsets given to the identification
+        (``settings["operating_point"]["given"]``) are kept either way.
+        Fits whose offsets were estimated (mode ``"estimate"``) and
+        recordings without outputs always use the fit's.
     k_step : int, optional
         Predict ``k_step`` samples ahead from the measured outputs (MATLAB
         ``compare(data, sys, k)``) with the state-space innovation gain; a
@@ -443,7 +556,9 @@ def predict(
     if operating == "auto":
         operating = "recording" if mode_op in ("initial", "rest") else "fit"
     if operating == "recording" and y is not None and mode_op in OPERATING_POINTS:
-        u_rec, y_rec = operating_point(u, y, str(mode_op))
+        # the recording's own operating point, the fit's given offsets kept
+        given = offset_arrays(op.get("given") if op else None, exo, outs)
+        u_rec, y_rec = operating_point(u, y, str(mode_op), given)
         model, theta = fit_model(fit, u_op=u_rec, y_op=y_rec, dt=rec.dt, noise_model=noise)
         used = "recording"
     mode = x0

@@ -71,8 +71,8 @@ complete a system of one order in ``_n4sid_system``, and the compiled loops in
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -93,9 +93,11 @@ from thermogym.identification._n4sid_system import StateSpaceFit
 from thermogym.identification.advice import check_fit
 from thermogym.identification.linear_fit import (
     OPERATING_POINTS,
+    check_offsets,
     data_entries,
     evaluate_fit,
     exogenous_roles,
+    offset_arrays,
     operating_point,
     signal_arrays,
     signal_ranges,
@@ -159,6 +161,31 @@ class N4SIDProblem:
     units: dict[str, str]
     recordings: list[Recording]
     mode: str = "none"  # the operating-point mode that made the deviations
+    #: given offsets ``{"inputs": {...}, "outputs": {...}}`` (replace the mode's values)
+    offsets: dict[str, dict[str, float]] = field(
+        default_factory=lambda: {"inputs": {}, "outputs": {}}
+    )
+
+    def stored_operating_point(self) -> dict[str, Any]:
+        """``settings["operating_point"]`` of a fit made from this problem.
+
+        The mean over the experiments of what was subtracted; a given offset
+        is stored as given.
+        """
+        exo = self.inputs + self.disturbances
+        u_op = np.mean([op[0] for op in self.ops], axis=0)
+        y_op = np.mean([op[1] for op in self.ops], axis=0)
+        out: dict[str, Any] = {
+            "mode": self.mode,
+            "inputs": {c: self.offsets["inputs"].get(c, float(u_op[k])) for k, c in enumerate(exo)},
+            "outputs": {
+                c: self.offsets["outputs"].get(c, float(y_op[k]))
+                for k, c in enumerate(self.outputs)
+            },
+        }
+        if self.offsets["inputs"] or self.offsets["outputs"]:
+            out["given"] = {k: dict(v) for k, v in self.offsets.items()}
+        return out
 
 
 def prepare_problem(
@@ -170,11 +197,14 @@ def prepare_problem(
     operating_point_mode: str = "none",
     min_samples: int = 8,
     step_inputs: bool | None = None,
+    offsets: Mapping[str, Any] | None = None,
 ) -> N4SIDProblem:
     """Check recordings and return deviation arrays in model column order.
 
     ``step_inputs`` accepts an input held constant at a non-zero value (a step
     from zero at ``t = 0``); default: with operating point ``"rest"`` only.
+    ``offsets`` are given operating-point values that replace the mode's
+    (:func:`~thermogym.identification.linear_fit.check_offsets`).
     """
     inputs = [inputs] if isinstance(inputs, str) else list(inputs)
     outputs = [outputs] if isinstance(outputs, str) else list(outputs)
@@ -182,6 +212,8 @@ def prepare_problem(
         raise ConfigError(
             f"operating_point_mode is {operating_point_mode!r}; expected one of {OPERATING_POINTS}"
         )
+    given_offsets = check_offsets(offsets, inputs, outputs)  # refused before any work
+    given = offset_arrays(given_offsets, inputs, outputs)
     exps = signal_arrays(
         recordings,
         inputs,
@@ -194,7 +226,7 @@ def prepare_problem(
     order = [inputs.index(c) for c in ins + dis]
     us, ys, ops = [], [], []
     for e in exps:
-        u_op, y_op = operating_point(e.u, e.y, operating_point_mode)
+        u_op, y_op = operating_point(e.u, e.y, operating_point_mode, given)
         assert y_op is not None
         us.append((e.u - u_op)[:, order])
         ys.append(e.y - y_op)
@@ -212,6 +244,7 @@ def prepare_problem(
         units,
         [e.recording for e in exps],
         operating_point_mode,
+        given_offsets,
     )
 
 
@@ -237,13 +270,12 @@ def system_fitresult(
     )
     exo = prob.inputs + prob.disturbances
     st = dict(settings)
-    u_op = np.mean([op[0] for op in prob.ops], axis=0)
-    y_op = np.mean([op[1] for op in prob.ops], axis=0)
     st["operating_point"] = {
+        **prob.stored_operating_point(),
         "mode": st.get("operating_point_mode", "none"),
-        "inputs": {c: float(u_op[k]) for k, c in enumerate(exo)},
-        "outputs": {c: float(y_op[k]) for k, c in enumerate(prob.outputs)},
     }
+    u_op = np.array([st["operating_point"]["inputs"][c] for c in exo])
+    y_op = np.array([st["operating_point"]["outputs"][c] for c in prob.outputs])
     if prob.recordings:  # the recorded ranges: what IdentifiedPlant-v0 scales by
         st.setdefault("signal_ranges", signal_ranges(prob.recordings, exo + prob.outputs))
     # the model itself carries the operating point: every simulation path applies it
@@ -286,6 +318,7 @@ def n4sid(
     stable: bool = True,
     noise_model: bool = True,
     operating_point_mode: str = "none",
+    offsets: Mapping[str, Any] | None = None,
     validate: Recording | Sequence[Recording] = (),
 ) -> N4SIDResult:
     """Identify a MIMO state-space model by N4SID (paper 001, section 2.3.3).
@@ -318,7 +351,12 @@ def n4sid(
         Project unstable poles into the unit circle.
     noise_model : bool
         Estimate the Kalman gain ``K`` (innovation form).
-    operating_point_mode : {"none", "initial", "mean"}
+    operating_point_mode : {"none", "initial", "mean", "rest"}
+    offsets : mapping, optional
+        Given operating point, ``{"inputs": {NAME: VALUE}, "outputs":
+        {NAME: VALUE}}``: replaces the mode's value of each signal named (in
+        every experiment) and is stored in the FitResult as given
+        (:func:`~thermogym.identification.linear_fit.check_offsets`).
     validate : Recording or sequence
         Validation recordings for the FitResult's metrics.
 
@@ -352,6 +390,7 @@ def n4sid(
         outputs,
         disturbances=disturbances,
         operating_point_mode=operating_point_mode,
+        offsets=offsets,
     )
     vals = [validate] if isinstance(validate, Recording) else list(validate)
     max_order = int(order) if order is not None else max(orders)

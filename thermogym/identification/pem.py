@@ -135,6 +135,7 @@ def pem(
     focus: str | None = None,
     disturbances: Sequence[str] | None = None,
     operating_point_mode: str = "mean",
+    offsets: Mapping[str, Any] | None = None,
     validate: Recording | Sequence[Recording] = (),
     max_nfev: int = 60,
     expect: Mapping[str, int] | None = None,
@@ -170,6 +171,11 @@ def pem(
         Which inputs are disturbances (default: the recording's roles).
     operating_point_mode : {"mean", "initial", "rest", "none"}
         Subtracted from each experiment (MATLAB's ``detrend`` is ``"mean"``).
+    offsets : mapping, optional
+        Given operating point ``{"inputs": {NAME: VALUE}, "outputs": {NAME:
+        VALUE}}``: replaces the mode's value of each signal named and is
+        stored in the FitResult as given (see
+        :func:`~thermogym.identification.n4sid.n4sid`).
     validate : Recording or sequence
         Recordings for the FitResult's validation metrics.
     max_nfev : int
@@ -209,7 +215,7 @@ def pem(
     )
     integer("max_order", max_order, lo=1, error=ConfigError)
     integer("max_delay", max_delay, lo=0, error=ConfigError)
-    prob = _problem(recordings, inputs, outputs, disturbances, operating_point_mode)
+    prob = _problem(recordings, inputs, outputs, disturbances, operating_point_mode, offsets)
     vals = [validate] if isinstance(validate, Recording) else list(validate)
     given = {"na": na, "nb": nb, "nc": nc, "nd": nd, "nf": nf, "nk": nk}
     has = STRUCTURES[family]
@@ -360,7 +366,8 @@ def refine(
         "operating_point_mode", fit.settings.get("operating_point", {}).get("mode", "none")
     )
     ins, dis, outs, units = base._cfg_names
-    prob = _problem(recordings, list(ins) + list(dis), list(outs), list(dis), mode)
+    given = (fit.settings.get("operating_point") or {}).get("given")  # kept as given
+    prob = _problem(recordings, list(ins) + list(dis), list(outs), list(dis), mode, given)
     vals = [validate] if isinstance(validate, Recording) else list(validate)
     mats = base.matrices(fit.theta(base))
     keep_k = focus == "prediction" and base.has_K
@@ -377,7 +384,7 @@ def refine(
         units=units,
     )
     th0 = model.nominal
-    data = _Data(list(prob.us), list(prob.ys), prob.dt, _offset(prob.mode))
+    data = _Data(list(prob.us), list(prob.ys), prob.dt, _offset(prob))
     before = float(np.sum(_residual_batch(model, th0[None], data, focus) ** 2))
     sol = _solve(model, th0, np.arange(th0.size), data, focus, max_nfev=max_nfev)
     th = sol.theta

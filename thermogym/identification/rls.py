@@ -227,7 +227,8 @@ class RecursiveFOPTD:
         Initial covariance scale.
     u_op, y_op : array_like, optional
         Operating point; default: the first sample seen (the paper's initial
-        values).
+        values). A NaN entry takes its signal's first sample; the finite
+        entries are stored in the FitResult as given offsets.
     theta0 : array_like (n_out, 1 + n_exog [+ 1]), optional
         Initial ``[a, b_1, …]`` (and ``c`` with ``bias``) per output.
     bias : bool
@@ -293,6 +294,19 @@ class RecursiveFOPTD:
         self._y_prev = np.zeros(p)
         self._u_op = None if u_op is None else np.asarray(u_op, dtype=float).reshape(m)
         self._y_op = None if y_op is None else np.asarray(y_op, dtype=float).reshape(p)
+        for name, a in (("u_op", self._u_op), ("y_op", self._y_op)):
+            if a is not None and np.isinf(a).any():
+                raise ConfigError(f"{name} {a.tolist()} is not finite; expected numbers (or NaN)")
+        #: the offsets given (finite entries of u_op, y_op), stored as given
+        self._given: dict[str, dict[str, float]] = {
+            part: {c: float(v) for c, v in zip(names, a, strict=True) if np.isfinite(v)}
+            if a is not None
+            else {}
+            for part, names, a in (
+                ("inputs", self.inputs, self._u_op),
+                ("outputs", self.outputs, self._y_op),
+            )
+        }
         self._started = False
 
     @classmethod
@@ -353,12 +367,20 @@ class RecursiveFOPTD:
         if not np.isfinite(U).all():
             raise ShapeError("inputs must be finite (NaN outputs are skipped)")
         if not self._started:
-            if self._u_op is None:
-                self._u_op = U[0].copy()
-            if self._y_op is None:
+            if self._u_op is None or np.isnan(self._u_op).any():  # the first sample
+                self._u_op = (
+                    U[0].copy()
+                    if self._u_op is None
+                    else np.where(np.isnan(self._u_op), U[0], self._u_op)
+                )
+            if self._y_op is None or np.isnan(self._y_op).any():
                 if not np.isfinite(Y[0]).all():
                     raise IdentificationError("the first output sample must be finite")
-                self._y_op = Y[0].copy()
+                self._y_op = (
+                    Y[0].copy()
+                    if self._y_op is None
+                    else np.where(np.isnan(self._y_op), Y[0], self._y_op)
+                )
             self._hist[:] = U[0] - self._u_op  # at rest before the first sample
             self._y_prev = Y[0] - self._y_op
             self._started = True
@@ -463,6 +485,11 @@ class RecursiveFOPTD:
                     "mode": "initial",
                     "inputs": {c: float(v) for c, v in zip(exo, u_op, strict=True)},
                     "outputs": {c: float(v) for c, v in zip(self.outputs, self._y_op, strict=True)},
+                    **(
+                        {"given": {k: dict(v) for k, v in self._given.items()}}
+                        if self._given["inputs"] or self._given["outputs"]
+                        else {}
+                    ),
                 },
             },
             notes="recursive least squares with forgetting of eq (9) of paper 000; eqs (11)-(12)",

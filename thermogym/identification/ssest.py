@@ -175,6 +175,7 @@ def ssest(
     focus: str = "simulation",
     disturbances: Sequence[str] | None = None,
     operating_point_mode: str = "mean",
+    offsets: Mapping[str, Any] | None = None,
     validate: Recording | Sequence[Recording] = (),
     decimate: int | str = "auto",
     expect: Mapping[str, int] | None = None,
@@ -183,7 +184,7 @@ def ssest(
 
     Parameters
     ----------
-    recordings, inputs, outputs, disturbances, operating_point_mode, validate
+    recordings, inputs, outputs, disturbances, operating_point_mode, offsets, validate
         As :func:`~thermogym.identification.n4sid.n4sid`.
     order : int, optional
         Fixed order; otherwise chosen over ``orders`` by cross-validation.
@@ -237,7 +238,11 @@ def ssest(
         # folds of deviation data: each part about its whole recording's operating point
         # (a part cut from a TCLab run does not start at rest), the folds of pem()
         shifted = deviation_recordings(
-            [delay_inputs(r, inputs, d) for r in recs], inputs, outputs, operating_point_mode
+            [delay_inputs(r, inputs, d) for r in recs],
+            inputs,
+            outputs,
+            operating_point_mode,
+            offsets=offsets,
         )
         fl = (
             [[p] for p in split_recording(shifted[0], folds)]
@@ -291,6 +296,7 @@ def ssest(
         disturbances=disturbances,
         feedthrough=ft,
         operating_point_mode=operating_point_mode,
+        offsets=offsets,
         decimate=decimate,
     )
     fit = res.fit
@@ -299,7 +305,7 @@ def ssest(
     model = fit.build_model()
     assert isinstance(model, StateSpaceModel)
     full = _with_delay(model, d)
-    prob = _problem(recs, inputs, outputs, disturbances, operating_point_mode)
+    prob = _problem(recs, inputs, outputs, disturbances, operating_point_mode, offsets)
     settings = dict(fit.settings)
     settings.pop("operating_point", None)
     settings.pop("signal_ranges", None)
@@ -348,6 +354,7 @@ def identify_auto(
     max_delay: int = 10,
     disturbances: Sequence[str] | None = None,
     operating_point_mode: str = "mean",
+    offsets: Mapping[str, Any] | None = None,
     validate: Recording | Sequence[Recording] = (),
     expect: Mapping[str, int] | None = None,
 ) -> PEMResult:
@@ -380,7 +387,7 @@ def identify_auto(
 
     Parameters
     ----------
-    recordings, inputs, outputs, disturbances, operating_point_mode, validate
+    recordings, inputs, outputs, disturbances, operating_point_mode, offsets, validate
         As :func:`~thermogym.identification.pem.pem`.
     families : sequence of {"arx", "armax", "oe", "bj", "sopdt", "ssest"}
     folds, max_delay
@@ -409,7 +416,7 @@ def identify_auto(
     recs = [recordings] if isinstance(recordings, Recording) else list(recordings)
     inputs = [inputs] if isinstance(inputs, str) else list(inputs)
     outputs = [outputs] if isinstance(outputs, str) else list(outputs)
-    prob = _problem(recs, inputs, outputs, disturbances, operating_point_mode)
+    prob = _problem(recs, inputs, outputs, disturbances, operating_point_mode, offsets)
     fd = _fold_problems(prob, folds)
     blocks = _complement_folds(prob, max(3, int(folds)))
     scores: dict[str, Any] = {}
@@ -417,6 +424,7 @@ def identify_auto(
     common: dict[str, Any] = {
         "disturbances": disturbances,
         "operating_point_mode": operating_point_mode,
+        "offsets": offsets,
     }
     for fam in families:
         try:
@@ -598,7 +606,7 @@ def _ssest_fold(prob: Any, st: dict[str, Any]) -> Any:
                 m,
                 m.nominal,
                 np.arange(m.nominal.size),
-                _Data(us_d, ys, prob.dt, _offset(prob.mode)),
+                _Data(us_d, ys, prob.dt, _offset(prob)),
                 "simulation",
                 max_nfev=40,
             )

@@ -58,7 +58,11 @@ from thermogym.identification.diagnosis.stages_report import _stage_report
 from thermogym.models.base import Model
 from thermogym.recording import Recording
 
-__all__ = ["STAGES", "diagnose", "resolve_model"]
+__all__ = ["STAGES", "X0_POLICIES", "diagnose", "resolve_model"]
+
+#: Initial-state choices of :func:`diagnose` (``auto``: ``estimate``, or ``rest`` when every
+#: input is constant in every training recording); the policies of :class:`.fit.FitProblem`.
+X0_POLICIES: tuple[str, ...] = ("auto", "estimate", "rest", "measured")
 
 #: The pipeline's stages, in order.
 STAGES = (
@@ -98,6 +102,7 @@ def diagnose(
     time_limit: float | None = None,
     progress: Callable[[str], None] | None = None,
     min_explained: float | None = None,
+    x0: str = "auto",
 ) -> DiagnosisReport:
     """Locate a model mismatch, name the missing physics, model it, show the fit improve.
 
@@ -153,6 +158,19 @@ def diagnose(
         Called with a line of text at each stage.
     min_explained : float, optional
         Ignored (the information criterion decides); kept for old callers.
+    x0 : {"auto", "estimate", "rest", "measured"}
+        Initial state of every recording in every fit and score:
+        ``"estimate"`` least squares on the recording's outputs (as MATLAB's
+        ``compare``; the free responses of the model to unit deviations of
+        its states), ``"rest"`` the model's own initial state (a plant at
+        rest; an identified ``ss``/``foptd`` per its ``steady_start``:
+        settled at the first input, else zero at the operating point),
+        ``"measured"`` measured temperature states from their first samples
+        (:func:`~.initial_states.initial_states`). ``"auto"`` (default):
+        ``"estimate"``, or ``"rest"`` for a generic model whose inputs are
+        constant in every training recording (the initial state cannot be
+        told from the input's effect there; a note says so). The policy used
+        is in the FitResults' ``settings["x0"]``.
 
     Returns
     -------
@@ -213,6 +231,8 @@ def diagnose(
                 f"unknown effect(s) {unknown}; the vocabulary is "
                 f"{[k for k in CATALOGUE if k not in ('none', 'parameter_error')]}"
             )
+    if x0 not in X0_POLICIES:
+        raise ConfigError(f"x0 is {x0!r}; expected one of {list(X0_POLICIES)}")
     if not (isinstance(max_effects, int) and max_effects >= 1):
         raise ConfigError(f"max_effects is {max_effects!r}; expected a whole number >= 1")
     opts = dict(
@@ -233,8 +253,10 @@ def diagnose(
         sparse=sparse,
         time_limit=time_limit,
         model=model,
+        x0=x0,
     )
     st = _Run(opts, say, time.perf_counter(), tr_list, va_list)
+    st.x0 = "estimate" if x0 == "auto" else x0  # "auto" may still become "rest" (nominal stage)
     for name in STAGES:
         t = time.perf_counter()
         out = _STAGE_FUNCS[name](st)

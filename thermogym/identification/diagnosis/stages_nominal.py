@@ -112,13 +112,14 @@ def _check_inputs(st: _Run) -> None:
             spec.base_config["u_op"] = [0.0] * u.shape[1]
             if "steady_start" in spec.base_config:
                 spec.base_config["steady_start"] = False
-            st.x0 = "rest"
-            st.notes.append(
-                "every input is constant within every training recording: the recordings are "
-                "taken to start at rest with the inputs at zero before their start (the initial "
-                "state is not estimated; give training recordings in which the inputs change to "
-                "have it estimated)"
-            )
+            if o.get("x0", "auto") == "auto":  # an explicit x0 is kept as given
+                st.x0 = "rest"
+                st.notes.append(
+                    "every input is constant within every training recording: the recordings "
+                    "are taken to start at rest with the inputs at zero before their start (the "
+                    "initial state is not estimated; give training recordings in which the "
+                    "inputs change to have it estimated)"
+                )
         nominal = spec.build()
     st.model, st.spec, st.outs = nominal, spec, outs
 
