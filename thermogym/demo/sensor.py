@@ -44,16 +44,16 @@ def stage_sensor(ctx: DemoContext, res: StageResult) -> None:
     day = data.validation[speed]
     sensor = sensor.at_period(day.dt)
     est = sensor.estimate(day, method="kalman", rest={"speed": 0.0})
-    rows = []
+    rows: list[tuple[str, float, float, float]] = []
     for name in INTERNAL:
         y, yh = np.asarray(day[name]), est[name]
         rows.append(
-            [
+            (
                 name,
                 float(rmse(y, yh)),
                 float(nrmse(y, yh)),
                 float(np.mean(est.std[:, est.names.index(name)])),
-            ]
+            )
         )
     res.table(
         ["hidden output", "RMSE [K]", "fit", "mean estimate σ [K]"],

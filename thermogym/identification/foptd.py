@@ -489,8 +489,9 @@ def _fit_output_estimate(
     ``offset``: the output at rest at ``u_op``, given instead of fitted.
     """
     fixed_c = offset is not None
-    if fixed_c:
-        ys = [yy - offset for yy in ys]
+    if offset is not None:
+        off = float(offset)
+        ys = [yy - off for yy in ys]
     y = np.concatenate(ys)
     m = us[0].shape[1]
     if np.ptp(y) <= 1e-12 * max(1.0, float(np.abs(y).max())):
