@@ -271,7 +271,9 @@ def test_semicolon_and_decimal_comma_csv(tmp_path, capsys):
     assert not out.exists()
     assert main([*argv, "--delimiter", "semicolon", "--decimal", ","]) == 0
     printed = capsys.readouterr().out
-    assert out.is_file() and "note:" not in printed  # given, not detected: no note
+    # given, not detected: no note about the dialect (the units note is another matter)
+    dialect = [ln for ln in printed.splitlines() if ln.startswith("note:") and "unit" not in ln]
+    assert out.is_file() and not dialect, dialect
     out.unlink()
     assert main(argv) == 0
     assert "detected the field delimiter semicolon" in capsys.readouterr().out
