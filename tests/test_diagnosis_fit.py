@@ -98,3 +98,53 @@ def test_whitened_chi2_ignores_coloured_noise_and_sees_a_real_difference():
     assert delta_ic(chi_null, 1, m) > 0 > delta_ic(chi_real, 1, m)
     a, _ = ar_filter([noise[:, 0]])
     assert a.size >= 1 and a[0] == pytest.approx(0.98, abs=0.02)
+
+
+def _stub(model, k_local, change, noise=0.05, n=200):
+    """A fitted-looking hypothesis whose held-out prediction differs from its parent's by a
+    constant ``change`` (K); everything else passes."""
+    from thermogym.identification.diagnosis.hypothesis import Hypothesis
+
+    h = Hypothesis(candidates=())
+    h.model, h.k_local = model, k_local
+    h.sims_val = [np.full((n, 1), 20.0 + change)]
+    h.wsse_val, h.delta_ic, h.explained = 1.0, -50.0, 0.3
+    return h
+
+
+@pytest.mark.parametrize(
+    ("aug", "follows"),
+    [
+        ({"effect": "sensor_offset", "signal": "T"}, False),
+        ({"effect": "sensor_lag", "signal": "T"}, True),
+        (
+            {"effect": "unmeasured_disturbance", "signal": "T_a", "form": "steps", "span": 3600.0},
+            True,
+        ),
+    ],
+)
+def test_the_wander_bar_is_asked_only_of_what_can_follow_each_recording(aug, follows):
+    # a shared constant cannot follow a held-out recording's sensor wander; a per-recording
+    # course or a state started afresh in every recording can, and must change the held-out
+    # prediction by KEEP_SNR white-noise sigma to be kept
+    from thermogym.identification.diagnosis.select import (
+        KEEP_SNR,
+        Data,
+        follows_recordings,
+        passes,
+    )
+
+    base = NodeModel()
+    aug_model = AugmentedModel(base, None, [aug])
+    k_local = sum(p.group == "local" for p in aug_model.parameters)
+    parent = _stub(base, 0, 0.0)
+    parent.wsse_val, parent.explained = 2.0, 0.0
+    data = Data(train=[], val=[], weights=np.ones(1), x0="estimate", noise=np.array([0.05]))
+    data.min_snr = 0.5
+    assert follows_recordings(_stub(aug_model, k_local, 0.0), parent) is follows
+    # a change of 1.2 sigma: above the detection's materiality, below the wander bar
+    h = _stub(aug_model, k_local, 1.2 * 0.05)
+    assert passes(h, parent, 4, data) is (not follows)
+    # and one of 0.3 sigma is below both bars; one above KEEP_SNR passes either way
+    assert not passes(_stub(aug_model, k_local, 0.3 * 0.05), parent, 4, data)
+    assert passes(_stub(aug_model, k_local, (KEEP_SNR + 0.5) * 0.05), parent, 4, data)
