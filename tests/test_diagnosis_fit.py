@@ -148,3 +148,50 @@ def test_the_wander_bar_is_asked_only_of_what_can_follow_each_recording(aug, fol
     # and one of 0.3 sigma is below both bars; one above KEEP_SNR passes either way
     assert not passes(_stub(aug_model, k_local, 0.3 * 0.05), parent, 4, data)
     assert passes(_stub(aug_model, k_local, (KEEP_SNR + 0.5) * 0.05), parent, 4, data)
+
+
+def test_a_simpler_combination_that_removes_nearly_all_the_error_is_reported():
+    from thermogym.identification.diagnosis.hypothesis import Hypothesis
+    from thermogym.identification.diagnosis.select import PREDICTIVE_SHARE, choose_combination
+
+    def step(explained, k_local=0):
+        h = Hypothesis(candidates=())
+        h.explained, h.k_local = explained, k_local
+        return h
+
+    one = [step(0.925)]
+    two = [step(0.60), step(0.926)]
+    # the pair is better by the criterion, the single effect removes 99.9 % of what it removes
+    assert choose_combination([(two, -1048.0), (one, -1024.0)]) is one
+    # a single effect that removes clearly less than the pair does not displace it
+    short = [step(0.926 * PREDICTIVE_SHARE * 0.99)]
+    assert choose_combination([(two, -1048.0), (short, -900.0)]) is two
+    # fewer effects but more per-recording courses is not simpler
+    course = [step(0.925, k_local=6)]
+    assert choose_combination([(two, -1048.0), (course, -1024.0)]) is two
+    # fewer courses is preferred even with more effects
+    pair_no_course = [step(0.5), step(0.92)]
+    assert choose_combination([([step(0.926, k_local=6)], -1048.0), (pair_no_course, -1000.0)]) is (
+        pair_no_course
+    )
+
+
+def test_a_jacobian_past_the_time_limit_stops_the_fit_without_a_covariance():
+    import time
+
+    from thermogym.identification.diagnosis.fit import STOPPED
+
+    tr, _ = node_recordings(2, n_val=0, white=0.02, coloured=1e-6)
+    m = NodeModel()
+    exps = prepare_experiments(m, tr, ["T"])
+    th = m.theta(dict(TRUE))[0]
+    free = ("C",)
+    i = m.param_index("C")
+    pb = FitProblem(m, free, th, np.array([0.5 * th[i]]), np.array([2.0 * th[i]]), exps,
+                    np.ones(1), "estimate")  # fmt: skip
+    out = fit_model(pb, max_nfev=20, deadline=time.perf_counter() - 1.0)
+    assert out.message == STOPPED and out.covariance is None
+    assert np.isnan(out.stderr["C"])
+    # without a limit the same fit converges and has its interval
+    done = fit_model(pb, max_nfev=20)
+    assert done.message != STOPPED and np.isfinite(done.stderr["C"])

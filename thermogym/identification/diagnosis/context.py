@@ -11,7 +11,7 @@ quoted as evidence, the fits decide.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -232,27 +232,25 @@ class Context:
         The step (1 % of the port's span) is applied a quarter into the first
         training recording; None when the model cannot be simulated so.
         """
-        key = ("step", port)
-        if key not in self._memo:
-            i = self.is_train.index(True)
-            u = self.u[i]
-            j = list(self.exogenous).index(port)
-            span = float(np.ptp(u[:, j])) or max(abs(float(np.mean(u[:, j]))), 1.0)
-            n0 = u.shape[0] // 4
-            uu = np.stack([u, u])
-            uu[1, n0:, j] += 0.01 * span
-            th = np.repeat(self.theta[None], 2, axis=0)
-            d: NDArray[np.float64] | None = None
-            try:
-                x0 = self.model.initial_state(th, uu[:, 0])
-                sim = self.model.simulate(uu, self.dt[i], th, x0, strict=False)
-                d = sim.outputs[1, n0:] - sim.outputs[0, n0:]
-                if not np.isfinite(d).all():
-                    d = None
-            except Exception:
-                d = None
-            self._memo[key] = d
-        return self._memo[key]
+        d: NDArray[np.float64] | None = self.memo(("step", port), lambda: self._step_of(port))
+        return d
+
+    def _step_of(self, port: str) -> NDArray[np.float64] | None:
+        i = self.is_train.index(True)
+        u = self.u[i]
+        j = list(self.exogenous).index(port)
+        span = float(np.ptp(u[:, j])) or max(abs(float(np.mean(u[:, j]))), 1.0)
+        n0 = u.shape[0] // 4
+        uu = np.stack([u, u])
+        uu[1, n0:, j] += 0.01 * span
+        th = np.repeat(self.theta[None], 2, axis=0)
+        try:
+            x0 = self.model.initial_state(th, uu[:, 0])
+            sim = self.model.simulate(uu, self.dt[i], th, x0, strict=False)
+            d = sim.outputs[1, n0:] - sim.outputs[0, n0:]
+        except Exception:
+            return None
+        return d if np.isfinite(d).all() else None
 
     def response_time(self, port: str, output: str) -> float:
         """Seconds the nominal model's output takes to make half its response to a step of ``port``.
@@ -295,6 +293,24 @@ class Context:
         other = float(a[first, 1:].max())
         return float(a[first, 0] / other) if other > 0 else math.inf
 
+    def memo(self, key: tuple[str, ...], make: Callable[[], Any]) -> Any:
+        """``make()``, computed once per context for ``key`` (a proposer's reading of the model).
+
+        Examples
+        --------
+        >>> from thermogym.identification.diagnosis.context import Context
+        >>> calls = []
+        >>> ctx = Context.__new__(Context)
+        >>> ctx._memo = {}
+        >>> [ctx.memo(("port", "T"), lambda: calls.append(1) or "T_a") for _ in range(2)]
+        ['T_a', 'T_a']
+        >>> len(calls)
+        1
+        """
+        if key not in self._memo:
+            self._memo[key] = make()
+        return self._memo[key]
+
     def sets_conductance(self, name: str, output: str) -> str | None:
         """The temperature input across which ``name`` sets a conductance, if any.
 
@@ -308,10 +324,10 @@ class Context:
         alone in the isothermal plant, makes the input pull the output up most
         (more conductance to a warmer side warms the output).
         """
-        key = (name, output)
-        if key not in self._memo:
-            self._memo[key] = self._sets_conductance(name, output)
-        return self._memo[key]
+        found: str | None = self.memo(
+            ("sets", name, output), lambda: self._sets_conductance(name, output)
+        )
+        return found
 
     def _sets_conductance(self, name: str, output: str) -> str | None:
         temps = [t for t in self.temperature_inputs if t in self.exogenous]

@@ -342,12 +342,15 @@ class FitProblem:
         r0: NDArray[np.float64],
         h: NDArray[np.float64],
         skip: NDArray[np.bool_] | None = None,
+        deadline: float | None = None,
     ) -> NDArray[np.float64]:
         """Forward-difference Jacobian (N, n_free) at ``z`` with steps ``h`` (free units).
 
         Shared columns are simulated on every experiment in one batch each;
         a local column only on its own experiment. Columns where ``skip`` is
-        true are not computed (left zero: the caller fills them).
+        true are not computed (left zero: the caller fills them). Past
+        ``deadline`` (a ``time.perf_counter()`` value) it stops between
+        experiments by raising the time-limit stop of :func:`fit_model`.
         """
         ne = len(self.experiments)
         sizes = [self.experiments[i].n * len(self.experiments[i].outputs) for i in range(ne)]
@@ -359,6 +362,8 @@ class FitProblem:
             Z = np.repeat(z[None], cols.size, axis=0)
             Z[np.arange(cols.size), cols] += h[cols]
             for i in range(ne):
+                if deadline is not None and time.perf_counter() > deadline:
+                    raise _Stop
                 R = self._weighted(self.simulate(Z, i), i)
                 J[offs[i] : offs[i + 1], cols] = (
                     (R - r0[None, offs[i] : offs[i + 1]]) / h[cols, None]
@@ -366,6 +371,8 @@ class FitProblem:
         if self.n_local:
             L = self.n_local
             for i in range(ne):
+                if deadline is not None and time.perf_counter() > deadline:
+                    raise _Stop
                 a = g + i * L
                 Z = np.repeat(z[None], L, axis=0)
                 Z[np.arange(L), a + np.arange(L)] += h[a : a + L]
@@ -557,8 +564,19 @@ def fit_model(
             break
     z_opt = best["z"]
     r = best["r"] if best["r"] is not None else problem.residuals(z_opt[None])[0]
+    # a fit the time limit stopped is reported without the covariance's Jacobian (P + 1 more
+    # simulations of every recording, past the limit); its intervals say so (NaN)
     return _outcome(
-        problem, z_opt, r, None, nfev_total, njev_total, t0, success, message, covariance
+        problem,
+        z_opt,
+        r,
+        None,
+        nfev_total,
+        njev_total,
+        t0,
+        success,
+        message,
+        covariance and message != STOPPED,
     )
 
 
@@ -607,11 +625,11 @@ def _objective(
         steps = np.where(s + h_unit <= 1.0, h_unit, -h_unit)
         z = lo + np.clip(s, 0.0, 1.0) * span
         if skip is None or kept is None:
-            return problem.jacobian(z, r0, steps * span) * span[None, :]
+            return problem.jacobian(z, r0, steps * span, deadline=deadline) * span[None, :]
         if "J" not in kept:
-            kept["J"] = problem.jacobian(z, r0, steps * span) * span[None, :]
+            kept["J"] = problem.jacobian(z, r0, steps * span, deadline=deadline) * span[None, :]
             return kept["J"].copy()
-        J = problem.jacobian(z, r0, steps * span, skip=skip) * span[None, :]
+        J = problem.jacobian(z, r0, steps * span, skip=skip, deadline=deadline) * span[None, :]
         J[:, skip] = kept["J"][:, skip]
         return J
 

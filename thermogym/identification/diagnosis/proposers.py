@@ -84,10 +84,8 @@ def _port(ctx: Context, output: str) -> tuple[str, float] | None:
     conductance an input sets (a coolant inlet behind a valve, the valve
     itself): a heat flow entered there would scale with that input.
     """
-    key = ("port", output)
-    if key not in ctx._memo:
-        ctx._memo[key] = _choose_port(ctx, output)
-    return ctx._memo[key]
+    port: tuple[str, float] | None = ctx.memo(("port", output), lambda: _choose_port(ctx, output))
+    return port
 
 
 def _choose_port(ctx: Context, output: str) -> tuple[str, float] | None:
