@@ -77,6 +77,7 @@ def test_rig_modules_import_nothing_of_the_models():
         "_spindle_kernels.py",
         "_convection.py",
         "_machine.py",
+        "_plant_base.py",
     ):
         tree = ast.parse((root / name).read_text())
         for node in ast.walk(tree):

@@ -282,6 +282,33 @@ class Engine:
         return self._horizon
 
     # ---- shared
+    def _period(self, env: str, cfg: Any) -> float:
+        """Check ``cfg.control_period`` and ``cfg.episode_s``; set ``_dt`` and ``_horizon``.
+
+        Returns the control period [s].
+        """
+        T = check_number(env, "control_period", cfg.control_period, lo=0.0, lo_open=True)
+        self._dt = T
+        self._horizon = steps_of(env, "episode_s", check_number(env, "episode_s", cfg.episode_s), T)
+        return T
+
+    def _call(self, kernels: tuple[Any, Any], mode: int, *arrays: Any) -> int:
+        """Run ``kernels`` (serial, parallel; :func:`~thermogym.envs._kernels.plant_loops`).
+
+        The parallel loop when :attr:`parallel` is set and there are several
+        plants; the arguments after :attr:`active` and ``mode`` are ``arrays``.
+        """
+        kernel = kernels[1] if self.parallel and self.B > 1 else kernels[0]
+        return int(kernel(self.active, mode, *arrays))
+
+    def _steps_done(self, b: int) -> int:
+        """Control steps of plant ``b``'s episode so far (at least 1, a divisor of averages)."""
+        return max(int(self.ctr[b, C_K]), 1)
+
+    def _episode_h(self, b: int) -> float:
+        """Length of plant ``b``'s episode so far [h]."""
+        return float(self.ctr[b, C_K] * self._dt / 3600.0)
+
     def set_theta(
         self, rows: Sequence[int] | NDArray[np.int64], theta: NDArray[np.float64]
     ) -> None:

@@ -72,7 +72,6 @@ Version History
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -81,19 +80,10 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from thermogym.envs._base import (
-    C_K,
-    ThermoEnv,
-    ThermoVectorEnv,
-    check_number,
-    check_range,
-    draw,
-    parse_noise,
-    parse_weights,
-    steps_of,
-)
-from thermogym.envs._kernels import cache_depends_on, meas_array, measure, plant_loops
-from thermogym.envs._network import LTIEngine, lti_output, lti_step, network_plant
+from thermogym.envs._base import ThermoEnv, ThermoVectorEnv, check_number, check_range, draw
+from thermogym.envs._kernels import cache_depends_on, measure, plant_loops
+from thermogym.envs._machine_env import MachineConfig, MachineEngine
+from thermogym.envs._network import lti_output, lti_step
 from thermogym.envs._plant import ParamsLike
 from thermogym.envs.profiles import ambient_day
 from thermogym.errors import ConfigError
@@ -134,23 +124,13 @@ _STEPWISE_RIG_EFFECTS = (
 
 
 @dataclass
-class SpindleConfig:
-    """Keyword arguments of ``thermogym/SpindleThermal-v0``."""
+class SpindleConfig(MachineConfig):
+    """Keyword arguments of ``thermogym/SpindleThermal-v0`` (and :class:`MachineConfig`'s)."""
 
     params: ParamsLike = None
     """FitResult of model ``spindle`` (RC network) or ``ss`` (N4SID state space with input
     ``speed``, the seven outputs of paper 001 Table 6 and, optionally, disturbance ``T_amb``;
     without it the outputs are taken as rises above the ambient)."""
-    plant: str = "model"
-    """``"model"`` or ``"rig"`` (the spindle rig's true plant)."""
-    rig_effects: Sequence[str] = ()
-    """Effects of the spindle rig (``plant="rig"``)."""
-    specimen_seed: int | None = None
-    """``plant="rig"``: seed of the rig's specimen drawn from its spread (None: the rig's own)."""
-    control_period: float = 60.0
-    """Control period [s]."""
-    episode_s: float = 8 * 3600.0
-    """Episode length [s]."""
     speed_range_rpm: tuple[float, float] = (0.0, 8000.0)
     """Speed range mapped from the action [rpm]."""
     bearing_limit_C: float = 45.0
@@ -165,14 +145,6 @@ class SpindleConfig:
     """Clock time at the start of the episode [h]."""
     initial_speed_rpm: float = 0.0
     """0: start at rest at the ambient; > 0: warm, at the steady state of this speed."""
-    sensor_noise: bool | Mapping[str, float] = True
-    """Sensor noise; False: exact; a dict overrides σ per observed temperature."""
-    reward_weights: Mapping[str, float] | None = None
-    """Overrides of :data:`DEFAULT_WEIGHTS`."""
-    randomize: str | None = None
-    """Domain randomisation per episode."""
-    randomize_kwargs: Mapping[str, Any] | None = None
-    """``scale``, ``names``, ``bounds`` of the randomisation."""
 
 
 _T, _HOR, _NMIN, _NMAX, _LIM, _TRIP, _WT, _WO, _WTR = range(9)
@@ -261,11 +233,20 @@ def _spindle_row(
 
 
 cache_depends_on(_spindle_row)
-_spindle_kernel, _spindle_parallel = plant_loops(_spindle_row)
 
 
-class _SpindleEngine(LTIEngine):
+class _SpindleEngine(MachineEngine):
     name = ENV
+    models = ("spindle", "ss")
+    default_model = SpindleModel
+    rig_name = "spindle"
+    stepwise_effects = _STEPWISE_RIG_EFFECTS
+    plant_outputs = OUTPUTS
+    plant_inputs = ("speed", "T_amb")
+    sensor_table = SENSORS
+    default_weights = DEFAULT_WEIGHTS
+    n_accumulators = _NACC
+    kernels = plant_loops(_spindle_row)
     obs_names = _OBS
     obs_units = ("°C", "°C", "°C", "rpm")
     sig_names = _SIG
@@ -278,56 +259,34 @@ class _SpindleEngine(LTIEngine):
         ("reward", ("reward",)),
     )
 
+    cfg: SpindleConfig
+
     def __init__(self, B: int, cfg: SpindleConfig) -> None:
-        env = ENV
-        self.cfg = cfg
-        T = check_number(env, "control_period", cfg.control_period, lo=0.0, lo_open=True)
-        self._dt = T
-        self._horizon = steps_of(env, "episode_s", check_number(env, "episode_s", cfg.episode_s), T)
-        nmin, nmax = check_range(env, "speed_range_rpm", cfg.speed_range_rpm, lo=0.0, hi=1e5)
-        if nmax <= 0:
-            raise ConfigError(f"{env}: speed_range_rpm {cfg.speed_range_rpm}; expected max > 0")
-        self.u_max = nmax
-        self.ambient = check_range(env, "ambient_C", cfg.ambient_C, lo=-20.0, hi=60.0)
-        self.swing = check_number(env, "ambient_swing_K", cfg.ambient_swing_K, lo=0.0, hi=20.0)
-        self.clock = check_number(env, "start_clock_h", cfg.start_clock_h, lo=0.0, hi=24.0)
-        self.n0 = check_number(env, "initial_speed_rpm", cfg.initial_speed_rpm, lo=0.0, hi=1e5)
-        w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
-        if cfg.plant == "rig" and cfg.randomize is not None:
-            raise ConfigError(
-                f"{env}: randomize is not available with plant='rig': the rig's true plant is "
-                "not a model with parameters (its specimen is set by specimen_seed)"
-            )
-        plant = network_plant(
-            env,
-            params=cfg.params,
-            plant=cfg.plant,
-            models=("spindle", "ss"),
-            default=SpindleModel,
-            rig="spindle",
-            rig_effects=cfg.rig_effects,
-            stepwise_effects=_STEPWISE_RIG_EFFECTS,
-            specimen_seed=cfg.specimen_seed,
-        )
-        super().__init__(B, plant, OUTPUTS, ("speed", "T_amb"), T, _NACC)
-        sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)
-        lo, hi = self.obs_bounds()
-        off, drift = plant.sensor_errors(_CH, len(lo))
-        self.meas = meas_array(sens, lo, hi, off, drift)
+        super().__init__(B, cfg)
+        w = self.weights
         self.cfgv = np.array(
             [
-                T,
+                self._dt,
                 float(self._horizon),
-                nmin,
-                nmax,
-                check_number(env, "bearing_limit_C", cfg.bearing_limit_C),
-                check_number(env, "trip_C", cfg.trip_C),
+                *self.n_range,
+                check_number(ENV, "bearing_limit_C", cfg.bearing_limit_C),
+                check_number(ENV, "trip_C", cfg.trip_C),
                 w["throughput"],
                 w["over_limit"],
                 w["trip"],
             ]
         )
-        self.amb = np.zeros((B, self._horizon + 1))
+
+    def _settings(self, env: str, cfg: SpindleConfig) -> None:
+        nmin, nmax = check_range(env, "speed_range_rpm", cfg.speed_range_rpm, lo=0.0, hi=1e5)
+        if nmax <= 0:
+            raise ConfigError(f"{env}: speed_range_rpm {cfg.speed_range_rpm}; expected max > 0")
+        self.u_max = nmax
+        self.n_range = (nmin, nmax)
+        self.ambient = check_range(env, "ambient_C", cfg.ambient_C, lo=-20.0, hi=60.0)
+        self.swing = check_number(env, "ambient_swing_K", cfg.ambient_swing_K, lo=0.0, hi=20.0)
+        self.clock = check_number(env, "start_clock_h", cfg.start_clock_h, lo=0.0, hi=24.0)
+        self.n0 = check_number(env, "initial_speed_rpm", cfg.initial_speed_rpm, lo=0.0, hi=1e5)
 
     def action_space(self) -> spaces.Space[Any]:
         return spaces.Box(-1.0, 1.0, (1,), dtype=np.float32)
@@ -340,40 +299,26 @@ class _SpindleEngine(LTIEngine):
     def _reset_row(self, b: int, rng: np.random.Generator) -> None:
         mean = draw(rng, self.ambient)
         t = self._dt * np.arange(self._horizon + 1, dtype=np.float64)
-        self.amb[b] = ambient_day(rng, t, start_clock_h=self.clock, mean_C=mean, swing_K=self.swing)
-        self.x[b] = self.rest_state(b, np.array([self.n0, self.amb[b, 0]]))
+        self.ambient_tab[b] = ambient_day(
+            rng, t, start_clock_h=self.clock, mean_C=mean, swing_K=self.swing
+        )
+        self.x[b] = self.rest_state(b, np.array([self.n0, self.ambient_tab[b, 0]]))
         self.acc[b, _A_UPREV] = self.n0
 
-    def _kernel(self, mode: int) -> int:
-        if mode == 0 and not self.all_linear:
-            a = np.clip(self.act[:, 0], -1.0, 1.0)
-            c = self.cfgv
-            u = np.column_stack(
-                [
-                    c[_NMIN] + 0.5 * (a + 1.0) * (c[_NMAX] - c[_NMIN]),
-                    self.amb[np.arange(self.B), np.minimum(self.ctr[:, C_K], self._horizon)],
-                ]
-            )
-            self.advance_nonlinear(u)
-        kernel = _spindle_parallel if self.parallel and self.B > 1 else _spindle_kernel
-        return int(
-            kernel(
-                self.active, mode, self.act, self.linear, self.x, self.At, self.Bt, self.Ct,
-                self.Dt, self.h0, self.amb, self.acc, self.ctr, self.noise, self.meas, self.cfgv,
-                self.obs, self.out, self.sig, self.scratch,
-            )
-        )  # fmt: skip
+    def _manipulated(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
+        c = self.cfgv
+        return c[_NMIN] + 0.5 * (a + 1.0) * (c[_NMAX] - c[_NMIN])
 
     def kpis(self, b: int) -> dict[str, float]:
         a = self.acc[b]
-        k = max(int(self.ctr[b, C_K]), 1)
+        k = self._steps_done(b)
         return {
             "bearing_over_limit_Kh": float(a[_A_OVER]),
             "time_above_limit_h": float(a[_A_ABOVE] / 3600.0),
             "max_bearing_C": float(a[_A_MAX]),
             "mean_speed_rpm": float(a[_A_REV] * 60.0 / (k * self._dt)),
             "spindle_revolutions": float(a[_A_REV]),
-            "episode_h": float(self.ctr[b, C_K] * self._dt / 3600.0),
+            "episode_h": self._episode_h(b),
         }
 
     def trip_reason(self, b: int) -> str:

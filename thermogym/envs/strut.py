@@ -62,7 +62,6 @@ Version History
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -71,21 +70,11 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import NDArray
 
-from thermogym.envs._base import (
-    C_K,
-    ThermoEnv,
-    ThermoVectorEnv,
-    check_number,
-    check_range,
-    draw,
-    parse_noise,
-    parse_weights,
-    steps_of,
-)
-from thermogym.envs._kernels import cache_depends_on, meas_array, measure, plant_loops
-from thermogym.envs._network import LTIEngine, lti_output, lti_step, network_plant
+from thermogym.envs._base import ThermoEnv, ThermoVectorEnv, check_number, check_range, draw
+from thermogym.envs._kernels import cache_depends_on, measure, plant_loops
+from thermogym.envs._machine_env import MachineConfig, MachineEngine
+from thermogym.envs._network import lti_output, lti_step
 from thermogym.envs._plant import ParamsLike
-from thermogym.errors import ConfigError
 from thermogym.models.strut import STRUT_OUTPUTS, StrutModel
 
 __all__ = ["DEFAULT_WEIGHTS", "StrutConfig", "StrutThermalEnv", "StrutThermalVectorEnv"]
@@ -112,21 +101,11 @@ _STEPWISE_RIG_EFFECTS = (
 
 
 @dataclass
-class StrutConfig:
-    """Keyword arguments of ``thermogym/StrutThermal-v0``."""
+class StrutConfig(MachineConfig):
+    """Keyword arguments of ``thermogym/StrutThermal-v0`` (and :class:`MachineConfig`'s)."""
 
     params: ParamsLike = None
     """FitResult of model ``strut`` (the RC network with its five ratio parameters)."""
-    plant: str = "model"
-    """``"model"`` or ``"rig"`` (the strut rig's true plant)."""
-    rig_effects: Sequence[str] = ()
-    """Effects of the strut rig (``plant="rig"``)."""
-    specimen_seed: int | None = None
-    """``plant="rig"``: seed of the rig's specimen drawn from its spread (None: the rig's own)."""
-    control_period: float = 60.0
-    """Control period [s]."""
-    episode_s: float = 8 * 3600.0
-    """Episode length [s]."""
     max_feed_m_min: float = 30.0
     """Largest feed rate [m/min] (paper 000 tests 20-30 m/min)."""
     max_compensation_um: float = 600.0
@@ -141,14 +120,6 @@ class StrutConfig:
     """Drive temperature counted in ``time_above_limit_h`` [°C]."""
     trip_C: float = 70.0
     """Drive temperature of the safety trip [°C]."""
-    sensor_noise: bool | Mapping[str, float] = True
-    """Sensor noise; False: exact; a dict overrides σ per channel."""
-    reward_weights: Mapping[str, float] | None = None
-    """Overrides of :data:`DEFAULT_WEIGHTS`."""
-    randomize: str | None = None
-    """Domain randomisation per episode."""
-    randomize_kwargs: Mapping[str, Any] | None = None
-    """``scale``, ``names``, ``bounds`` of the randomisation."""
 
 
 _T, _HOR, _VMAX, _CMAX, _LIM, _TRIP, _WT, _WE, _WTR = range(9)
@@ -241,11 +212,20 @@ def _strut_row(
 
 
 cache_depends_on(_strut_row)
-_strut_kernel, _strut_parallel = plant_loops(_strut_row)
 
 
-class _StrutEngine(LTIEngine):
+class _StrutEngine(MachineEngine):
     name = ENV
+    models = ("strut",)
+    default_model = StrutModel
+    rig_name = "strut"
+    stepwise_effects = _STEPWISE_RIG_EFFECTS
+    plant_outputs = OUTPUTS
+    plant_inputs = ("feed_rate", "T_air")
+    sensor_table = SENSORS
+    default_weights = DEFAULT_WEIGHTS
+    n_accumulators = _NACC
+    kernels = plant_loops(_strut_row)
     obs_names = _OBS
     obs_units = ("°C",) * 8 + ("m/min", "µm")
     sig_names = _SIG
@@ -258,56 +238,33 @@ class _StrutEngine(LTIEngine):
         ("reward", ("reward",)),
     )
 
+    cfg: StrutConfig
+
     def __init__(self, B: int, cfg: StrutConfig) -> None:
-        env = ENV
-        self.cfg = cfg
-        T = check_number(env, "control_period", cfg.control_period, lo=0.0, lo_open=True)
-        self._dt = T
-        self._horizon = steps_of(env, "episode_s", check_number(env, "episode_s", cfg.episode_s), T)
-        vmax = check_number(env, "max_feed_m_min", cfg.max_feed_m_min, lo=0.0, lo_open=True)
-        cmax = check_number(env, "max_compensation_um", cfg.max_compensation_um, lo=0.0)
-        self.u_max = vmax
-        self.air = check_range(env, "air_C", cfg.air_C, lo=-20.0, hi=60.0)
-        self.swing = check_number(env, "air_swing_K", cfg.air_swing_K, lo=0.0, hi=20.0)
-        w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
-        if cfg.plant == "rig" and cfg.randomize is not None:
-            raise ConfigError(
-                f"{env}: randomize is not available with plant='rig': the rig's true plant is "
-                "not a model with parameters (its specimen is set by specimen_seed)"
-            )
-        plant = network_plant(
-            env,
-            params=cfg.params,
-            plant=cfg.plant,
-            models=("strut",),
-            default=StrutModel,
-            rig="strut",
-            rig_effects=cfg.rig_effects,
-            stepwise_effects=_STEPWISE_RIG_EFFECTS,
-            specimen_seed=cfg.specimen_seed,
-        )
-        super().__init__(B, plant, OUTPUTS, ("feed_rate", "T_air"), T, _NACC)
-        sens = parse_noise(env, cfg.sensor_noise, _CH, SENSORS, plant.sensors)
-        lo, hi = self.obs_bounds()
-        off, drift = plant.sensor_errors(_CH, len(lo))
-        self.meas = meas_array(sens, lo, hi, off, drift)
+        super().__init__(B, cfg)
+        w = self.weights
         self.cfgv = np.array(
             [
-                T,
+                self._dt,
                 float(self._horizon),
-                vmax,
-                cmax,
-                check_number(env, "drive_limit_C", cfg.drive_limit_C),
-                check_number(env, "trip_C", cfg.trip_C),
+                self.u_max,
+                self.c_max,
+                check_number(ENV, "drive_limit_C", cfg.drive_limit_C),
+                check_number(ENV, "trip_C", cfg.trip_C),
                 w["throughput"],
                 w["error"],
                 w["trip"],
             ]
         )
-        self.air_tab = np.zeros((B, self._horizon + 1))
         self._h0_dL = np.zeros(B)
         self._iref = self.model.param_index("T_ref")
         self._L_total_um = float(self.model._L_total_um)  # type: ignore[attr-defined]
+
+    def _settings(self, env: str, cfg: StrutConfig) -> None:
+        self.u_max = check_number(env, "max_feed_m_min", cfg.max_feed_m_min, lo=0.0, lo_open=True)
+        self.c_max = check_number(env, "max_compensation_um", cfg.max_compensation_um, lo=0.0)
+        self.air = check_range(env, "air_C", cfg.air_C, lo=-20.0, hi=60.0)
+        self.swing = check_number(env, "air_swing_K", cfg.air_swing_K, lo=0.0, hi=20.0)
 
     def action_space(self) -> spaces.Space[Any]:
         return spaces.Box(-1.0, 1.0, (2,), dtype=np.float32)
@@ -325,13 +282,13 @@ class _StrutEngine(LTIEngine):
         mean = draw(rng, self.air)
         phase = float(rng.uniform(0.0, 2 * np.pi))
         t = self._dt * np.arange(self._horizon + 1)
-        self.air_tab[b] = mean + self.swing * np.sin(2 * np.pi * t / (6 * 3600.0) + phase)
+        self.ambient_tab[b] = mean + self.swing * np.sin(2 * np.pi * t / (6 * 3600.0) + phase)
         if self.cfg.zero_at_start and self.rig_plant is None:
             # the axis is referenced now: T_ref = starting air temperature, so ΔL(0) = 0.
             # T_ref enters only the offset of ΔL (h_0 = −Σ α L · T_ref, eq 5)
             T_ref = self.theta[b, self._iref]
-            self.h0[b, 7] = self._h0_dL[b] + self._L_total_um * (T_ref - self.air_tab[b, 0])
-        self.x[b] = self.rest_state(b, np.array([0.0, self.air_tab[b, 0]]))
+            self.h0[b, 7] = self._h0_dL[b] + self._L_total_um * (T_ref - self.ambient_tab[b, 0])
+        self.x[b] = self.rest_state(b, np.array([0.0, self.ambient_tab[b, 0]]))
         if self.cfg.zero_at_start and self.rig_plant is not None:
             # the rig's ΔL is against the ISO 20 °C length: reference the axis now
             self.h0[b, 7] = -self.x[b, 7]
@@ -342,35 +299,19 @@ class _StrutEngine(LTIEngine):
         super()._set_theta_row(b, theta)
         self._h0_dL[b] = self.h0[b, 7]
 
-    def _kernel(self, mode: int) -> int:
-        if mode == 0 and not self.all_linear:
-            a = np.clip(self.act[:, 0], -1.0, 1.0)
-            u = np.column_stack(
-                [
-                    0.5 * (a + 1.0) * self.cfgv[_VMAX],
-                    self.air_tab[np.arange(self.B), np.minimum(self.ctr[:, C_K], self._horizon)],
-                ]
-            )
-            self.advance_nonlinear(u)
-        kernel = _strut_parallel if self.parallel and self.B > 1 else _strut_kernel
-        return int(
-            kernel(
-                self.active, mode, self.act, self.linear, self.x, self.At, self.Bt, self.Ct,
-                self.Dt, self.h0, self.air_tab, self.acc, self.ctr, self.noise, self.meas,
-                self.cfgv, self.obs, self.out, self.sig, self.scratch,
-            )
-        )  # fmt: skip
+    def _manipulated(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
+        return 0.5 * (a + 1.0) * self.cfgv[_VMAX]
 
     def kpis(self, b: int) -> dict[str, float]:
         a = self.acc[b]
-        k = max(int(self.ctr[b, C_K]), 1)
+        k = self._steps_done(b)
         return {
             "elongation_error_um": float(math.sqrt(a[_A_SSE] / k)),
             "elongation_error_max_um": float(a[_A_MAXE]),
             "time_above_limit_h": float(a[_A_ABOVE] / 3600.0),
             "travel_m": float(a[_A_TRAV]),
             "mean_feed_m_min": float(a[_A_TRAV] * 60.0 / (k * self._dt)),
-            "episode_h": float(self.ctr[b, C_K] * self._dt / 3600.0),
+            "episode_h": self._episode_h(b),
         }
 
     def trip_reason(self, b: int) -> str:

@@ -90,7 +90,6 @@ from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
 from thermogym.envs._base import (
-    C_K,
     Engine,
     ThermoEnv,
     ThermoVectorEnv,
@@ -237,7 +236,7 @@ def _tclab_row(
 
 
 cache_depends_on(_tclab_row)
-_tclab_kernel, _tclab_parallel = plant_loops(_tclab_row)
+_TCLAB_KERNELS = plant_loops(_tclab_row)
 
 
 class _TCLabEngine(Engine):
@@ -257,9 +256,7 @@ class _TCLabEngine(Engine):
     def __init__(self, B: int, cfg: TCLabConfig) -> None:
         env = ENV
         self.cfg = cfg
-        T = check_number(env, "control_period", cfg.control_period, lo=0.0, lo_open=True)
-        self._dt = T
-        self._horizon = steps_of(env, "episode_s", check_number(env, "episode_s", cfg.episode_s), T)
+        T = self._period(env, cfg)
         self.ambient = check_range(env, "ambient_C", cfg.ambient_C, lo=-10.0, hi=50.0)
         w = parse_weights(env, cfg.reward_weights, DEFAULT_WEIGHTS)
         plant = resolve_plant(
@@ -344,24 +341,21 @@ class _TCLabEngine(Engine):
         self.x[b] = Ta
 
     def _kernel(self, mode: int) -> int:
-        kernel = _tclab_parallel if self.parallel and self.B > 1 else _tclab_kernel
-        return int(
-            kernel(
-                self.active, mode, self.act, self.x, self.p, self.amb, self.sp, self.acc,
-                self.ctr, self.noise, self.meas, self.cfgv, self.obs, self.out, self.sig,
-            )
+        return self._call(
+            _TCLAB_KERNELS, mode, self.act, self.x, self.p, self.amb, self.sp, self.acc,
+            self.ctr, self.noise, self.meas, self.cfgv, self.obs, self.out, self.sig,
         )  # fmt: skip
 
     def kpis(self, b: int) -> dict[str, float]:
         a = self.acc[b]
-        k = max(int(self.ctr[b, C_K]), 1)
+        k = self._steps_done(b)
         return {
             "actuator_energy_Wh": float(a[_A_E] / 3600.0),
             "temperature_rmse_K": float(math.sqrt(a[_A_SSE] / (2 * k))),
             "temperature_iae_K_s": float(a[_A_IAE]),
             "time_above_limit_h": float(a[_A_ABOVE] / 3600.0),
             "max_temperature_C": float(a[_A_MAX]),
-            "episode_h": float(self.ctr[b, C_K] * self._dt / 3600.0),
+            "episode_h": self._episode_h(b),
         }
 
     def trip_reason(self, b: int) -> str:

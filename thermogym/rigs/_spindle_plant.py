@@ -17,12 +17,11 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym._checks import integer
-from thermogym.errors import ShapeError, UnknownNameError
-from thermogym.rigs._convection import h_free_cylinder, h_radiation, k_ratio_rotating_annulus
+from thermogym.rigs._convection import k_ratio_rotating_annulus
 from thermogym.rigs._machine import Links, ratio_parameters, segment_weights
+from thermogym.rigs._plant_base import NetworkPlant, air_coefficients, link_flags, node_totals
 from thermogym.rigs._spindle_kernels import _bearing_power, _flows, _simulate
-from thermogym.rigs.base import EffectSpec, ExtraPhysics, PlantRun, Specimens, TruePlant
+from thermogym.rigs.base import EffectSpec, ExtraPhysics, Specimens
 
 __all__ = ["EXTRAS", "PHYSICS", "SPREAD", "TEMPERATURES", "SpindlePlant"]
 
@@ -203,7 +202,7 @@ class _Arrays:
     rho: NDArray[np.float64]  # (B,)
 
 
-class SpindlePlant(TruePlant):
+class SpindlePlant(NetworkPlant[_Arrays]):
     """The spindle's true plant: a batch of specimens, stepped in compiled code.
 
     Parameters
@@ -251,6 +250,8 @@ class SpindlePlant(TruePlant):
         "grease_share": "1",
     }
     max_step = 5.0
+    spread = SPREAD
+    kernels = (_simulate, _flows)
     parameters = ratio_parameters(SPREAD, "the rig's physical estimate (module docstring)")
     extras = EXTRAS
     supported_effects = (
@@ -281,46 +282,26 @@ class SpindlePlant(TruePlant):
         n_housing: int = 10,
     ) -> None:
         super().__init__(off=off, effects=effects)
-        self.physics = dict(self.switches)
-        self.concealed = {e.name: self.effect(e.name) or {} for e in self.effects}
-        if self.physics["distributed_nodes"]:
-            self.n_shaft = integer("n_shaft", n_shaft, lo=1)
-            self.n_housing = integer("n_housing", n_housing, lo=1)
-        else:
-            self.n_shaft, self.n_housing = 3, 2
+        self.n_shaft, self.n_housing = self._segments(
+            "distributed_nodes", {"n_shaft": (n_shaft, 3), "n_housing": (n_housing, 2)}
+        )
         # nodes: pulley, bracket, 4 inner rings, 4 outer rings, shaft, sleeve, outer housing
         self._first = {"shaft": 10, "sleeve": 10 + self.n_shaft}
         self._first["outer"] = self._first["sleeve"] + self.n_housing
         self.n_nodes = self._first["outer"] + self.n_housing
-        self.state_names = (  # type: ignore[misc]
-            "T_pulley",
-            "T_bracket",
-            *(f"T_inner_ring_{b[0]}" for b in _BEARINGS),
-            *(f"T_outer_ring_{b[0]}" for b in _BEARINGS),
-            *(f"T_shaft_{i}" for i in range(self.n_shaft)),
-            *(f"T_sleeve_{i}" for i in range(self.n_housing)),
-            *(f"T_outer_{i}" for i in range(self.n_housing)),
-            *(f"RTD_{k}" for k in TEMPERATURES),
-            "grease_share",
-        )
-        self.n_states = len(self.state_names)
-        self._cache: dict[int, tuple[Any, _Arrays]] = {}
-
-    def arrays(self, specimens: Specimens) -> _Arrays:
-        """Kernel arrays for a batch of specimens (cached per Specimens object)."""
-        hit = self._cache.get(id(specimens))
-        if hit is not None and hit[0] is specimens:
-            return hit[1]
-        missing = [k for k in SPREAD if k not in specimens]
-        if missing:
-            raise UnknownNameError(
-                f"spindle specimens lack {missing}; they need {list(SPREAD)} (SpindlePlant.nominal)"
+        self._set_states(
+            (
+                "T_pulley",
+                "T_bracket",
+                *(f"T_inner_ring_{b[0]}" for b in _BEARINGS),
+                *(f"T_outer_ring_{b[0]}" for b in _BEARINGS),
+                *(f"T_shaft_{i}" for i in range(self.n_shaft)),
+                *(f"T_sleeve_{i}" for i in range(self.n_housing)),
+                *(f"T_outer_{i}" for i in range(self.n_housing)),
+                *(f"RTD_{k}" for k in TEMPERATURES),
+                "grease_share",
             )
-        arr = self._build({k: specimens[k] for k in SPREAD})
-        if len(self._cache) > 8:
-            self._cache.clear()
-        self._cache[id(specimens)] = (specimens, arr)
-        return arr
+        )
 
     def _build(self, sp: dict[str, NDArray[np.float64]]) -> _Arrays:
         ph, cc = self.physics, self.concealed
@@ -388,10 +369,7 @@ class SpindlePlant(TruePlant):
             L.spread(1, O0, w, float(md.get("G", 4.0)))
         ei, ej, eg = L.arrays()
         # the spacer gap's links carry Taylor vortices while the shaft turns
-        eann = np.array(
-            [int((a, b) in spacer) for a, b in zip(ei.tolist(), ej.tolist(), strict=True)],
-            dtype=np.int64,
-        )
+        eann = link_flags(ei, ej, spacer)
         # air
         A = np.zeros((B, nn))
         gb = np.zeros((B, nn))
@@ -419,8 +397,7 @@ class SpindlePlant(TruePlant):
             ftype[S0:I0] = np.where(w_nose > 0, 1, 0)
         if "input_dependent_heat_transfer" in cc:
             ftype[O0:] = 2
-        hnat = np.array([h_free_cylinder(_DT_DESIGN, d) for d in D])
-        hrad = np.array([h_radiation(25.0 + _DT_DESIGN / 2, 25.0 - _DT_DESIGN / 2, e) for e in eps])
+        hnat, hrad = air_coefficients(D, eps, _DT_DESIGN)
         qbelt = _Q_BELT / 1000.0 * sp["loss_belt"]
         # RTDs: outer rings, sleeve centre, outer housing rear and front ends
         rtd = np.array(
@@ -437,11 +414,7 @@ class SpindlePlant(TruePlant):
         )
         tau = np.array(_RTD_TAU)[None] * sp["rtd_tau"][:, None]
         f_hi = k_ratio_rotating_annulus(12000.0, *_SPACER_RADII) if ph["rotating_convection"] else 1
-        tot = gb.copy()
-        for e, (a, b) in enumerate(zip(ei.tolist(), ej.tolist(), strict=True)):
-            g = eg[:, e] * (f_hi if eann[e] else 1.0)
-            tot[:, a] += g
-            tot[:, b] += g
+        tot = node_totals(ei, ej, eg, eann, f_hi, gb)
         h_hi = 250.0 if ph["rotating_convection"] else 30.0
         rho = np.max((tot + A * h_hi) / C, axis=1)
         if ph["sensor_mounting"]:
@@ -493,32 +466,9 @@ class SpindlePlant(TruePlant):
     # ------------------------------------------------------------------ contract
     def initial_state(self, specimens: Specimens, u0: NDArray[np.float64]) -> NDArray[np.float64]:
         """At rest at the ambient ``u0[..., 1]`` after a night (grease back in the rolling path)."""
-        B = specimens.n
-        u0 = np.asarray(u0, dtype=float)
-        Ta = np.broadcast_to(u0[..., 1] if u0.ndim else u0, (B,))
-        x = np.repeat(Ta[:, None], self.n_states, axis=1)
+        x = self._rest(specimens, u0)
         x[:, -1] = 1.0
         return x
-
-    def step(
-        self,
-        x: NDArray[np.float64],
-        u: NDArray[np.float64],
-        dt: float | NDArray[np.float64],
-        specimens: Specimens,
-    ) -> NDArray[np.float64]:
-        """The state (B, n_x) after ``dt`` seconds with ``u`` (B, 2) or (2,) held."""
-        B = specimens.n
-        d = self.substeps(dt, self.max_step, B)
-        if np.any(d != d[0]):
-            raise ShapeError("the spindle plant steps every specimen by the same dt")
-        if d[0] == 0.0:
-            return np.array(x, dtype=float, copy=True)
-        U = np.repeat(np.broadcast_to(np.asarray(u, dtype=float), (B, 2))[:, None], 2, axis=1)
-        xs = np.empty((B, 2, self.n_states))
-        y = np.empty((B, 2, 7))
-        self._kernel(np.asarray(x, dtype=float), U, float(d[0]), specimens, y, xs, True)
-        return xs[:, 1].copy()
 
     def outputs(
         self, x: NDArray[np.float64], u: NDArray[np.float64] | None, specimens: Specimens
@@ -551,95 +501,9 @@ class SpindlePlant(TruePlant):
         _bearing_power(x, float(speed), arr.bir, arr.bor, arr.bpar, self._flags(), self._par(), out)
         return out
 
-    def plant_inputs(self, u: NDArray[np.float64], dt: float, t0: float) -> NDArray[np.float64]:
-        """The inputs the spindle sees: the logged speed shifted, the air disturbed."""
-        s = self.effect("transport_delay")
-        d = self.effect("unmeasured_disturbance")
-        if s is None and d is None:
-            return u
-        ua = np.array(u, dtype=float, copy=True)
-        T = ua.shape[1]
-        if s is not None:  # the speed log runs late: the spindle turned earlier
-            shift = float(s.get("delay", 600.0)) / dt
-            k = np.arange(T)
-            for b in range(ua.shape[0]):
-                ua[b, :, 0] = np.interp(k + shift, k, ua[b, :, 0], right=ua[b, -1, 0])
-        if d is not None:  # an air-conditioning cycle the ambient RTD does not see
-            t = t0 + dt * np.arange(T)
-            amp, per = float(d.get("amplitude", 2.0)), float(d.get("period", 18000.0))
-            ua[:, :, 1] += amp * np.sin(2 * np.pi * t / per + float(d.get("phase", 0.0)))
-        return ua
-
-    def rate_bound(self, specimens: Specimens) -> float:
-        """Bound of the fastest rate of the batch [1/s]."""
-        return float(self.arrays(specimens).rho.max())
-
-    def heat_flows(
-        self, x: NDArray[np.float64], u: NDArray[np.float64], specimens: Specimens
-    ) -> dict[str, NDArray[np.float64]]:
-        """Heat balance at state ``x`` (B, n_x) with inputs ``u`` (B, 2) or (2,).
-
-        Returns
-        -------
-        dict
-            ``source`` (B, n_nodes) heat generated in each node [W]; ``g_air``
-            (B, n_nodes) its conductance to the ambient (air and bench) [W/K];
-            ``generated`` and ``to_air`` (B,) totals [W]; ``stored`` (B,)
-            ``Σ C dT/dt`` [W]; ``dTdt`` (B, n_nodes) each node's rate [K/s].
-        """
-        arr = self.arrays(specimens)
-        B, nn = specimens.n, self.n_nodes
-        X = np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (B, self.n_states)))
-        U = np.ascontiguousarray(np.broadcast_to(np.asarray(u, dtype=float), (B, 2)))
-        rec = np.zeros((B, 2, nn))
-        dxdt = np.zeros((B, self.n_states))
-        _flows(
-            X, U, arr.C, arr.ei, arr.ej, arr.eg, arr.eann, arr.A, arr.gb, arr.D, arr.eps, arr.hnat,
-            arr.hrad, arr.ftype, arr.bir, arr.bor, arr.bpar, arr.qbelt, arr.ipul, arr.rtd,
-            arr.tau, self._flags(), self._par(), rec, dxdt,
-        )  # fmt: skip
-        return {
-            "source": rec[:, 0],
-            "g_air": rec[:, 1],
-            "generated": rec[:, 0].sum(axis=1),
-            "to_air": np.sum(rec[:, 1] * (X[:, :nn] - U[:, 1:2]), axis=1),
-            "stored": np.sum(arr.C * dxdt[:, :nn], axis=1),
-            "dTdt": dxdt[:, :nn].copy(),
-        }
-
-    def _simulate(
-        self,
-        u: NDArray[np.float64],
-        dt: float,
-        specimens: Specimens,
-        x: NDArray[np.float64],
-        t0: float,
-    ) -> PlantRun:
-        B, T, _ = u.shape
-        y = np.empty((B, T, 7))
-        xs = np.empty((B, T, self.n_states))
-        self._kernel(x, u, dt, specimens, y, xs, True)
-        t = t0 + dt * np.arange(T, dtype=np.float64)
-        return PlantRun(t, u, y, xs, self.hidden(xs, specimens), TEMPERATURES)
-
-    def _kernel(
-        self,
-        x: NDArray[np.float64],
-        U: NDArray[np.float64],
-        dt: float,
-        specimens: Specimens,
-        y: NDArray[np.float64],
-        xs: NDArray[np.float64],
-        keep: bool,
-    ) -> None:
-        arr = self.arrays(specimens)
-        if x.shape != (specimens.n, self.n_states):
-            raise ShapeError(f"x has shape {x.shape}, expected ({specimens.n}, {self.n_states})")
-        nsub = max(1, math.ceil(dt * float(arr.rho.max())))
-        _simulate(
-            np.ascontiguousarray(x), np.ascontiguousarray(U), float(dt), nsub,
+    def _kernel_arrays(self, arr: _Arrays, simulate: bool) -> tuple[Any, ...]:
+        return (
             arr.C, arr.ei, arr.ej, arr.eg, arr.eann, arr.A, arr.gb, arr.D, arr.eps, arr.hnat,
             arr.hrad, arr.ftype, arr.bir, arr.bor, arr.bpar, arr.qbelt, arr.ipul, arr.rtd,
             arr.tau,
-            self._flags(), self._par(), y, xs, keep,
         )  # fmt: skip

@@ -18,18 +18,15 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym._checks import integer
-from thermogym.errors import ShapeError, UnknownNameError
 from thermogym.rigs._convection import (
     g_annulus_conduction,
     g_annulus_radiation,
-    h_free_cylinder,
-    h_radiation,
     k_ratio_free_annulus,
 )
 from thermogym.rigs._machine import Links, ratio_parameters, segment_weights
+from thermogym.rigs._plant_base import NetworkPlant, air_coefficients, link_flags, node_totals
 from thermogym.rigs._strut_kernels import _flows, _g_annulus, _simulate
-from thermogym.rigs.base import EffectSpec, ExtraPhysics, PlantRun, Specimens, TruePlant
+from thermogym.rigs.base import EffectSpec, ExtraPhysics, Specimens
 
 __all__ = ["EXTRAS", "OUTPUTS", "PHYSICS", "SPREAD", "TEMPERATURES", "StrutPlant"]
 
@@ -266,7 +263,7 @@ class _Arrays:
     rho: NDArray[np.float64]  # (B,) bound of the fastest rate [1/s]
 
 
-class StrutPlant(TruePlant):
+class StrutPlant(NetworkPlant[_Arrays]):
     """The strut's true plant: a batch of specimens, stepped in compiled code.
 
     Parameters
@@ -314,6 +311,8 @@ class StrutPlant(TruePlant):
         "travel_km": "km",
     }
     max_step = 20.0
+    spread = SPREAD
+    kernels = (_simulate, _flows)
     parameters = ratio_parameters(SPREAD, "the rig's physical estimate (module docstring)")
     extras = EXTRAS
     supported_effects = (
@@ -344,41 +343,21 @@ class StrutPlant(TruePlant):
         n_tube: int = 60,
     ) -> None:
         super().__init__(off=off, effects=effects)
-        self.physics = dict(self.switches)
-        self.concealed = {e.name: self.effect(e.name) or {} for e in self.effects}
-        if self.physics["conduction_1d"]:
-            self.n_screw = integer("n_screw", n_screw, lo=1)
-            self.n_tube = integer("n_tube", n_tube, lo=1)
-        else:
-            self.n_screw, self.n_tube = 5, 3
-        self.n_nodes = _NL + self.n_screw + self.n_tube
-        self.state_names = (  # type: ignore[misc]
-            *(f"T_{k}" for k in _LUMPED),
-            *(f"T_screw_{i}" for i in range(self.n_screw)),
-            *(f"T_tube_{i}" for i in range(self.n_tube)),
-            *(f"TC_{k}" for k in TEMPERATURES),
-            "travel_km",
+        self.n_screw, self.n_tube = self._segments(
+            "conduction_1d", {"n_screw": (n_screw, 5), "n_tube": (n_tube, 3)}
         )
-        self.n_states = len(self.state_names)
-        self._cache: dict[int, tuple[Any, _Arrays]] = {}
+        self.n_nodes = _NL + self.n_screw + self.n_tube
+        self._set_states(
+            (
+                *(f"T_{k}" for k in _LUMPED),
+                *(f"T_screw_{i}" for i in range(self.n_screw)),
+                *(f"T_tube_{i}" for i in range(self.n_tube)),
+                *(f"TC_{k}" for k in TEMPERATURES),
+                "travel_km",
+            )
+        )
 
     # --------------------------------------------------------------- the network
-    def arrays(self, specimens: Specimens) -> _Arrays:
-        """Kernel arrays for a batch of specimens (cached per Specimens object)."""
-        hit = self._cache.get(id(specimens))
-        if hit is not None and hit[0] is specimens:
-            return hit[1]
-        missing = [k for k in SPREAD if k not in specimens]
-        if missing:
-            raise UnknownNameError(
-                f"strut specimens lack {missing}; they need {list(SPREAD)} (StrutPlant.nominal)"
-            )
-        arr = self._build({k: specimens[k] for k in SPREAD})
-        if len(self._cache) > 8:
-            self._cache.clear()
-        self._cache[id(specimens)] = (specimens, arr)
-        return arr
-
     def _build(self, sp: dict[str, NDArray[np.float64]]) -> _Arrays:
         ph, cc = self.physics, self.concealed
         Ns, Nt, NL = self.n_screw, self.n_tube, _NL
@@ -448,10 +427,7 @@ class StrutPlant(TruePlant):
         L.spread(_IX["carriage"], T0, segment_weights(ts_e, 0.0, 0.06), _G_CARRIAGE_TUBE)
         L.spread(_IX["bushing"], T0, w_bush, _G_BUSHING_TUBE)
         ei, ej, eg = L.arrays()
-        eann = np.array(
-            [int((a, b) in annulus) for a, b in zip(ei.tolist(), ej.tolist(), strict=True)],
-            dtype=np.int64,
-        )
+        eann = link_flags(ei, ej, annulus)
         # air exchange
         A = np.zeros((B, nn))
         A2 = np.zeros((B, nn))
@@ -480,8 +456,7 @@ class StrutPlant(TruePlant):
         if fan is not None:
             per_rpm = float(fan.get("air_speed", 3.0)) / float(fan.get("at_rpm", 1000.0))
             xf[_IX["drive"]] = xf[_IX["motor_flange"]] = per_rpm
-        hnat = np.array([h_free_cylinder(_DT_DESIGN, d) for d in D])
-        hrad = np.array([h_radiation(25.0 + _DT_DESIGN / 2, 25.0 - _DT_DESIGN / 2, e) for e in eps])
+        hnat, hrad = air_coefficients(D, eps, _DT_DESIGN)
         # heat sources
         part = 0.5 if ph["heat_partition"] else 0.0
         w_rpm = 2 * math.pi / 60.0 / _LEAD  # rad/s per m/min
@@ -539,11 +514,7 @@ class StrutPlant(TruePlant):
         # fastest rate (Gershgorin): conductances + air at the largest forced convection
         # (the annulus at _N_HI, the air at 30 W/(m² K), more than any surface here sees)
         f_hi = _g_annulus_np(_N_HI, ph["forced_convection"]) / _G_ANN_STILL
-        tot = np.zeros((B, nn))
-        for e, (a, b) in enumerate(zip(ei.tolist(), ej.tolist(), strict=True)):
-            g_e = eg[:, e] * (f_hi if eann[e] else 1.0)
-            tot[:, a] += g_e
-            tot[:, b] += g_e
+        tot = node_totals(ei, ej, eg, eann, f_hi, np.zeros((B, nn)))
         g_air_hi = A * 30.0
         g_air_hi[:, S0:T0] = A[:, S0:T0] * _G_ANN_STILL * f_hi
         rho = np.max((tot + g_air_hi) / C, axis=1)
@@ -601,36 +572,13 @@ class StrutPlant(TruePlant):
         ``drive_warm_K``: the motor has not fully cooled down since the last run
         (winding and housing that much above the air, the flange 60 % of it).
         """
-        B = specimens.n
-        u0 = np.asarray(u0, dtype=float)
-        Ta = np.broadcast_to(u0[..., 1] if u0.ndim else u0, (B,))
-        x = np.repeat(Ta[:, None], self.n_states, axis=1)
+        x = self._rest(specimens, u0)
         x[:, -1] = 0.0
         if drive_warm_K:
             for node, f in (("winding", 1.0), ("drive", 1.0), ("motor_flange", 0.6)):
                 x[:, _IX[node]] += f * drive_warm_K
             x[:, self.n_nodes + 0] += drive_warm_K  # the drive thermocouple
         return x
-
-    def step(
-        self,
-        x: NDArray[np.float64],
-        u: NDArray[np.float64],
-        dt: float | NDArray[np.float64],
-        specimens: Specimens,
-    ) -> NDArray[np.float64]:
-        """The state (B, n_x) after ``dt`` seconds with ``u`` (B, 2) or (2,) held."""
-        B = specimens.n
-        d = self.substeps(dt, self.max_step, B)
-        if np.any(d != d[0]):
-            raise ShapeError("the strut plant steps every specimen by the same dt")
-        if d[0] == 0.0:
-            return np.array(x, dtype=float, copy=True)
-        U = np.repeat(np.broadcast_to(np.asarray(u, dtype=float), (B, 2))[:, None], 2, axis=1)
-        xs = np.empty((B, 2, self.n_states))
-        y = np.empty((B, 2, len(OUTPUTS)))
-        self._kernel(np.asarray(x, dtype=float), U, float(d[0]), specimens, y, xs, True)
-        return xs[:, 1].copy()
 
     def outputs(
         self, x: NDArray[np.float64], u: NDArray[np.float64] | None, specimens: Specimens
@@ -673,105 +621,12 @@ class StrutPlant(TruePlant):
             "T_tube": x[:, T0 : self.n_nodes].copy(),
         }
 
-    def plant_inputs(self, u: NDArray[np.float64], dt: float, t0: float) -> NDArray[np.float64]:
-        """The inputs the strut sees: the logged feed rate shifted, the air disturbed.
-
-        ``transport_delay``: the feed-rate log runs ``delay`` seconds behind the
-        temperature logger, so the strut moved that much earlier than logged.
-        ``unmeasured_disturbance``: an air-conditioning cycle around the strut
-        that the air sensor does not see.
-        """
-        s = self.effect("transport_delay")
-        d = self.effect("unmeasured_disturbance")
-        if s is None and d is None:
-            return u
-        ua = np.array(u, dtype=float, copy=True)
-        T = ua.shape[1]
-        if s is not None:
-            shift = float(s.get("delay", 600.0)) / dt
-            k = np.arange(T)
-            for b in range(ua.shape[0]):
-                ua[b, :, 0] = np.interp(k + shift, k, ua[b, :, 0], right=ua[b, -1, 0])
-        if d is not None:
-            t = t0 + dt * np.arange(T)
-            amp, per = float(d.get("amplitude", 1.5)), float(d.get("period", 7200.0))
-            ua[:, :, 1] += amp * np.sin(2 * np.pi * t / per + float(d.get("phase", 0.0)))
-        return ua
-
-    def rate_bound(self, specimens: Specimens) -> float:
-        """Bound of the fastest rate of the batch [1/s] (Gershgorin)."""
-        return float(self.arrays(specimens).rho.max())
-
-    def heat_flows(
-        self, x: NDArray[np.float64], u: NDArray[np.float64], specimens: Specimens
-    ) -> dict[str, NDArray[np.float64]]:
-        """Heat balance at state ``x`` (B, n_x) with inputs ``u`` (B, 2) or (2,).
-
-        Returns
-        -------
-        dict
-            ``source`` (B, n_nodes) heat generated in each node [W]; ``g_air``
-            (B, n_nodes) its conductance to the air [W/K]; ``generated`` and
-            ``to_air`` (B,) their totals [W]; ``stored`` (B,) ``Σ C dT/dt`` [W];
-            ``dTdt`` (B, n_nodes) each node's rate [K/s].
-        """
-        arr = self.arrays(specimens)
-        B, nn = specimens.n, self.n_nodes
-        X = np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (B, self.n_states)))
-        U = np.ascontiguousarray(np.broadcast_to(np.asarray(u, dtype=float), (B, 2)))
-        rec = np.zeros((B, 2, nn))
-        dxdt = np.zeros((B, self.n_states))
-        _flows(
-            X, U, arr.C, arr.ei, arr.ej, arr.eg, arr.eann, arr.A, arr.A2, arr.D, arr.eps,
-            arr.hnat, arr.hrad, arr.ftype, arr.xf, arr.qlin, arr.qcu, arr.qwear, arr.qvisc,
-            arr.tca, arr.tcb, arr.tcw, arr.tctau,
-            _IX["winding"] if self.physics["winding_node"] else _IX["drive"],
-            self._flags(), self._par(), rec, dxdt,
-        )  # fmt: skip
-        to_air = np.sum(rec[:, 1] * (X[:, :nn] - U[:, 1:2]), axis=1)
-        return {
-            "source": rec[:, 0],
-            "g_air": rec[:, 1],
-            "generated": rec[:, 0].sum(axis=1),
-            "to_air": to_air,
-            "stored": np.sum(arr.C * dxdt[:, :nn], axis=1),
-            "dTdt": dxdt[:, :nn].copy(),
-        }
-
-    def _simulate(
-        self,
-        u: NDArray[np.float64],
-        dt: float,
-        specimens: Specimens,
-        x: NDArray[np.float64],
-        t0: float,
-    ) -> PlantRun:
-        B, T, _ = u.shape
-        y = np.empty((B, T, len(OUTPUTS)))
-        xs = np.empty((B, T, self.n_states))
-        self._kernel(x, u, dt, specimens, y, xs, True)
-        hid = self.hidden(xs, specimens)
-        return PlantRun(t0 + dt * np.arange(T, dtype=np.float64), u, y, xs, hid, OUTPUTS)
-
-    def _kernel(
-        self,
-        x: NDArray[np.float64],
-        U: NDArray[np.float64],
-        dt: float,
-        specimens: Specimens,
-        y: NDArray[np.float64],
-        xs: NDArray[np.float64],
-        keep: bool,
-    ) -> None:
-        arr = self.arrays(specimens)
-        if x.shape != (specimens.n, self.n_states):
-            raise ShapeError(f"x has shape {x.shape}, expected ({specimens.n}, {self.n_states})")
-        nsub = max(1, math.ceil(dt * float(arr.rho.max())))
-        _simulate(
-            np.ascontiguousarray(x), np.ascontiguousarray(U), float(dt), nsub,
+    def _kernel_arrays(self, arr: _Arrays, simulate: bool) -> tuple[Any, ...]:
+        iw = _IX["winding"] if self.physics["winding_node"] else _IX["drive"]
+        head = (
             arr.C, arr.ei, arr.ej, arr.eg, arr.eann, arr.A, arr.A2, arr.D, arr.eps, arr.hnat,
             arr.hrad, arr.ftype, arr.xf, arr.qlin, arr.qcu, arr.qwear, arr.qvisc, arr.tca,
             arr.tcb, arr.tcw, arr.tctau,
-            arr.wL, _IX["winding"] if self.physics["winding_node"] else _IX["drive"],
-            self._flags(), self._par(), y, xs, keep,
         )  # fmt: skip
+        # the simulation also sums the elongation (path lengths wL)
+        return (*head, arr.wL, iw) if simulate else (*head, iw)

@@ -159,12 +159,12 @@ The rig's spindle is one specimen drawn from :data:`SPREAD` with seed
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
 
-from thermogym.errors import ConfigError, UnknownNameError
+from thermogym.rigs._plant_base import MachineRig
 from thermogym.rigs._spindle_plant import (
     _UNITS,
     EXTRAS,
@@ -173,7 +173,7 @@ from thermogym.rigs._spindle_plant import (
     TEMPERATURES,
     SpindlePlant,
 )
-from thermogym.rigs.base import EffectSpec, Protocol, Rig, RigRun, Specimens
+from thermogym.rigs.base import Protocol, RigRun
 from thermogym.rigs.sensors import Sensor
 
 __all__ = [
@@ -231,7 +231,7 @@ def ambient_profile(
     return mean + rng.uniform(-1.0, 1.0) + daily + walk - walk[0]
 
 
-class SpindleRig(Rig):
+class SpindleRig(MachineRig[SpindlePlant]):
     """Virtual spindle run-in system (paper 001, Fig. 3b) around :class:`SpindlePlant`.
 
     Parameters
@@ -244,6 +244,8 @@ class SpindleRig(Rig):
 
     name = "spindle"
     plant_cls = SpindlePlant
+    specimen_seed = SPECIMEN_SEED
+    recorded = (*TEMPERATURES, "T_amb")
     sensors: ClassVar[dict[str, Sensor]] = {
         k: Sensor(
             noise=0.02,
@@ -266,39 +268,6 @@ class SpindleRig(Rig):
         "sensor_lag": {"signal": "T_front_outer_housing", "tau": 600.0},
         "sensor_drift": {"signal": "T_inner_housing", "rate": 0.15},
     }
-
-    def __init__(
-        self, effects: Sequence[str | EffectSpec] = (), *, off: Iterable[str] = ()
-    ) -> None:
-        super().__init__(effects, off=off)
-        self.check_sensor_effects((*TEMPERATURES, "T_amb"))
-
-    def plant(self) -> SpindlePlant:
-        """The true plant with this rig's plant effects and switches."""
-        return super().plant()  # type: ignore[return-value]
-
-    @property
-    def specimen(self) -> Specimens:
-        """The rig's spindle: drawn from :data:`SPREAD` with :data:`SPECIMEN_SEED` unless set."""
-        if self._specimen is None:
-            rng = np.random.default_rng(SPECIMEN_SEED)
-            self._specimen = self.plant().draw_specimens(rng, 1)
-        return self._specimen
-
-    def with_specimen(self, values: Mapping[str, float] | Specimens | str) -> SpindleRig:
-        """A copy with another spindle: ``"nominal"``, a :class:`Specimens` of one, or factors."""
-        if isinstance(values, str):
-            if values != "nominal":
-                raise ConfigError(f"specimen {values!r}; expected 'nominal', a dict or Specimens")
-            values = self.plant().nominal(1)
-        elif not isinstance(values, Specimens):
-            bad = [k for k in values if k not in SPREAD]
-            if bad:
-                raise UnknownNameError(
-                    f"spindle specimen factor(s) {bad} unknown; factors are {list(SPREAD)} "
-                    "(the rig is not the model: it has no model parameters)"
-                )
-        return super().with_specimen(values)  # type: ignore[return-value]
 
     def days(
         self,

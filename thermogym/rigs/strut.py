@@ -154,12 +154,11 @@ The rig's strut is one specimen drawn from :data:`SPREAD` with seed
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
 
-from thermogym.errors import ConfigError, UnknownNameError
+from thermogym.rigs._plant_base import MachineRig
 from thermogym.rigs._strut_plant import (
     _UNITS,
     EXTRAS,
@@ -169,7 +168,7 @@ from thermogym.rigs._strut_plant import (
     TEMPERATURES,
     StrutPlant,
 )
-from thermogym.rigs.base import EffectSpec, Protocol, Rig, RigRun, Specimens
+from thermogym.rigs.base import Protocol, RigRun
 from thermogym.rigs.sensors import Sensor
 
 __all__ = [
@@ -201,7 +200,7 @@ _ROLES = {
 SPECIMEN_SEED = 0
 
 
-class StrutRig(Rig):
+class StrutRig(MachineRig[StrutPlant]):
     """Virtual actuator-strut test stand (paper 000, Fig. 4) around :class:`StrutPlant`.
 
     Parameters
@@ -214,6 +213,9 @@ class StrutRig(Rig):
 
     name = "strut"
     plant_cls = StrutPlant
+    specimen_seed = SPECIMEN_SEED
+    recorded = OUTPUTS
+    not_model = "the rig is not the model: it has no ratio parameters"
     sensors: ClassVar[dict[str, Sensor]] = {
         **{
             k: Sensor(
@@ -260,42 +262,6 @@ class StrutRig(Rig):
         "sensor_lag": {"signal": "T_nut", "tau": 300.0},
         "sensor_drift": {"signal": "T_spindle", "rate": 0.3},
     }
-
-    def __init__(
-        self, effects: Sequence[str | EffectSpec] = (), *, off: Iterable[str] = ()
-    ) -> None:
-        super().__init__(effects, off=off)
-        self.check_sensor_effects(OUTPUTS)
-
-    def plant(self) -> StrutPlant:
-        """The true plant with this rig's plant effects and switches."""
-        return super().plant()  # type: ignore[return-value]
-
-    @property
-    def specimen(self) -> Specimens:
-        """The rig's strut: drawn from :data:`SPREAD` with :data:`SPECIMEN_SEED` unless set."""
-        if self._specimen is None:
-            rng = np.random.default_rng(SPECIMEN_SEED)
-            self._specimen = self.plant().draw_specimens(rng, 1)
-        return self._specimen
-
-    def with_specimen(self, values: Mapping[str, float] | Specimens | str) -> StrutRig:
-        """A copy with another strut: ``"nominal"``, a :class:`Specimens` of one, or factors.
-
-        Factors (names of :data:`SPREAD`) left out keep this rig's values.
-        """
-        if isinstance(values, str):
-            if values != "nominal":
-                raise ConfigError(f"specimen {values!r}; expected 'nominal', a dict or Specimens")
-            values = self.plant().nominal(1)
-        elif not isinstance(values, Specimens):
-            bad = [k for k in values if k not in SPREAD]
-            if bad:
-                raise UnknownNameError(
-                    f"strut specimen factor(s) {bad} unknown; factors are {list(SPREAD)} "
-                    "(the rig is not the model: it has no ratio parameters)"
-                )
-        return super().with_specimen(values)  # type: ignore[return-value]
 
     def step_test(
         self,
