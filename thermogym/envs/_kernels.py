@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym._jitcache import cache_depends_on
-from thermogym.envs.kpis import tp_update_at
+from thermogym.envs.kpis import tp_select, tp_update_at
 
 __all__ = [
     "M_DRIFT",
@@ -34,6 +34,7 @@ __all__ = [
     "block_steppers",
     "cache_depends_on",
     "lane_blocks",
+    "lane_tracker",
     "meas_array",
     "measure",
     "plant_loops",
@@ -181,6 +182,45 @@ def lane_blocks(n_plants: int, bw: int, n_rows: int) -> NDArray[np.float64]:
     written once per parameter set (:func:`put_lane`), the other rows by the kernel.
     """
     return np.zeros((-(-n_plants // bw), n_rows * bw))
+
+
+@nb.njit(cache=True, inline="always")
+def lane_tracker(
+    wb: NDArray[np.float64],
+    W: int,
+    i: int,
+    v: float,
+    run: bool,
+    hT: float,
+    r_trk: int,
+    r_ntps: int,
+    r_tps: int,
+    nslot: int,
+) -> None:  # pragma: no cover - numba
+    """Feed sample ``v`` (if ``run``) to lane ``i``'s wax-temperature tracker in block ``wb``.
+
+    The lockstep kernels of the AXT211 environments keep, in the rows of a block of ``W``
+    lanes (row ``r`` of lane ``i`` at ``wb[r * W + i]``), a copy of each plant's tracker
+    (started: the first sample of the episode is in): its extreme and direction in rows
+    ``r_trk`` and ``r_trk + 1``, the count of turning points it confirmed in the period in
+    row ``r_ntps``. A confirmed turning point (:func:`~thermogym.envs.kpis.tp_select`,
+    hysteresis ``hT``) goes to the next of the ``nslot`` rows from ``r_tps``; the count goes
+    on past them (overflow). The plant's count of confirmed points is its own plus the
+    lane's count after the period. The row layout is the caller's (compile-time constants
+    there, so the inlined code indexes as with literal rows); branch-free, so the loop over
+    a block's lanes vectorises.
+    """
+    ex = wb[r_trk * W + i]
+    dr = wb[(r_trk + 1) * W + i]
+    n = wb[r_ntps * W + i]
+    _, ex1, dr1, _, tp, hit = tp_select(1.0, ex, dr, 0.0, v, hT)
+    hit = hit & run
+    wb[r_trk * W + i] = ex1 if run else ex
+    wb[(r_trk + 1) * W + i] = dr1 if run else dr
+    for k in range(nslot):
+        old = wb[(r_tps + k) * W + i]
+        wb[(r_tps + k) * W + i] = tp if (hit & (n == k)) else old
+    wb[r_ntps * W + i] = n + 1.0 if hit else n
 
 
 def put_lane(

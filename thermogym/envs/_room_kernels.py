@@ -19,8 +19,14 @@ from typing import Any, NamedTuple
 import numba as nb
 import numpy as np
 
-from thermogym.envs._kernels import block_steppers, cache_depends_on, measure, tp_push
-from thermogym.envs.kpis import tp_select, tp_update_at
+from thermogym.envs._kernels import (
+    block_steppers,
+    cache_depends_on,
+    lane_tracker,
+    measure,
+    tp_push,
+)
+from thermogym.envs.kpis import tp_update_at
 from thermogym.models import axt211_dynamics as ax
 from thermogym.models import integrators
 from thermogym.models import room_dynamics as rd
@@ -107,8 +113,8 @@ def _segment(
 # stepping each plant alone. Parameter sets with an active actuator effect take the scalar
 # _room_dyn. A block lives in one flat array, row r of lane i at wb[r * W + i]. The wax
 # temperature after every sub-step goes to a copy of the plant's turning-point tracker in
-# the block (tp_select; points to _NSLOT rows per lane, a period that confirms more is
-# stepped again by _room_dyn), as in axt211_valve's lockstep.
+# the block (_kernels.lane_tracker, shared with axt211_valve's lockstep: points to _NSLOT
+# rows per lane, a period that confirms more is stepped again by _room_dyn).
 
 _NQA = rd.LANE_ROOM  # the room's coefficient rows follow the actuator's in a block
 _NQ = rd.LANE_PLAIN  # parameter rows in a block (the plain flag goes to _R_PLAIN)
@@ -363,7 +369,7 @@ def _stage(wb, W, i, sf, j, kind, hT):  # pragma: no cover - numba
     )  # fmt: skip
     y3 = xVn if run else xV
     if last:  # (a compile-time constant) the wax temperature after the sub-step
-        _lane_tracker(wb, W, i, y[0], run, hT)
+        lane_tracker(wb, W, i, y[0], run, hT, _R_TRK, _R_NTPS, _R_TPS, _NSLOT)
     wb[_R_TP * W + i] = y[0]
     wb[_R_TG * W + i] = y[1]
     wb[_R_XP * W + i] = y[2]
@@ -374,25 +380,6 @@ def _stage(wb, W, i, sf, j, kind, hT):  # pragma: no cover - numba
     # arguments of the powers of the next stage (stage 1 of the next sub-step after 4)
     nxt = y if last else rk4_stage_input(x, k, h, j + 1)
     _stage_base(wb, W, i, nxt[2], y3 if last else xV, nxt[3], nxt[4], kind)
-
-
-@nb.njit(cache=True, inline="always")
-def _lane_tracker(wb, W, i, v, run, hT):  # pragma: no cover - numba
-    # lane i's wax-temperature tracker (started: the first sample of the episode is in) takes
-    # sample v (if run); a confirmed turning point goes to the next of its _NSLOT rows (the
-    # count goes on past them: overflow). Its count of confirmed points is the plant's plus
-    # the lane's count after the period
-    ex = wb[_R_TRK * W + i]
-    dr = wb[(_R_TRK + 1) * W + i]
-    n = wb[_R_NTPS * W + i]
-    _, ex1, dr1, _, tp, hit = tp_select(1.0, ex, dr, 0.0, v, hT)
-    hit = hit & run
-    wb[_R_TRK * W + i] = ex1 if run else ex
-    wb[(_R_TRK + 1) * W + i] = dr1 if run else dr
-    for k in range(_NSLOT):
-        old = wb[(_R_TPS + k) * W + i]
-        wb[(_R_TPS + k) * W + i] = tp if (hit & (n == k)) else old
-    wb[_R_NTPS * W + i] = n + 1.0 if hit else n
 
 
 _load6 = integrators.loader(6)
@@ -695,5 +682,5 @@ def _step_kernels(kind: int, lockstep: bool) -> _StepKernels:
     return _StepKernels(step, step_parallel, rollout)
 
 
-for _k in (_room_dyn, _room_post, _part, _lane_tracker):
+for _k in (_room_dyn, _room_post, _part):
     cache_depends_on(_k)

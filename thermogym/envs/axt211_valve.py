@@ -116,6 +116,7 @@ from thermogym.envs._kernels import (
     block_steppers,
     cache_depends_on,
     lane_blocks,
+    lane_tracker,
     meas_array,
     measure,
     put_lane,
@@ -125,7 +126,7 @@ from thermogym.envs._kernels import (
     tp_room,
 )
 from thermogym.envs._plant import ParamsLike, resolve_plant, rig_only
-from thermogym.envs.kpis import _rainflow_tp, tp_finish, tp_select, tp_update_at, wax_cycle_kpis
+from thermogym.envs.kpis import _rainflow_tp, tp_finish, tp_update_at, wax_cycle_kpis
 from thermogym.errors import ConfigError
 from thermogym.models import axt211_dynamics as ax
 from thermogym.models.axt211 import AXT211
@@ -381,10 +382,11 @@ def _valve_post(
 # run-time alias checks (it refuses for separate arrays: too many checks).
 #
 # The wax temperature after every sub-step goes to the plant's turning-point tracker, a
-# copy of it in the block's rows (the branch-free tp_select, bit for bit tp_update); the
-# turning points it confirms go to _NSLOT rows per lane, to the plant's buffer after the
-# period. A period that confirms more (hysteresis 0, or a trajectory that turns often) is
-# stepped again from its start by the scalar kernel (the lockstep wrote nothing back).
+# copy of it in the block's rows (_kernels.lane_tracker, shared with the room's lockstep: the
+# branch-free tp_select, bit for bit tp_update); the turning points it confirms go to _NSLOT
+# rows per lane, to the plant's buffer after the period. A period that confirms more
+# (hysteresis 0, or a trajectory that turns often) is stepped again from its start by the
+# scalar kernel (the lockstep wrote nothing back).
 
 _BW = 64  # lanes of a full block: its 40 rows x 64 lanes x 8 B = 20 KiB stay in L1 cache
 _NQ = ax.N_COEF  # lane-table rows in a block (all but the plain flag)
@@ -414,25 +416,6 @@ def _quad_point(wb, W, i, sf, non, hon, ku2, R):  # pragma: no cover - numba
 
 
 @nb.njit(cache=True, inline="always")
-def _lane_tracker(wb, W, i, v, run, hT):  # pragma: no cover - numba
-    # lane i's wax-temperature tracker (started: the first sample of the episode is in) takes
-    # sample v (if run); a confirmed turning point goes to the next of its _NSLOT rows (the
-    # count goes on past them: overflow). Its count of confirmed points is the plant's plus
-    # the lane's count after the period
-    ex = wb[_R_TRK * W + i]
-    dr = wb[(_R_TRK + 1) * W + i]
-    n = wb[_R_NTPS * W + i]
-    _, ex1, dr1, _, tp, hit = tp_select(1.0, ex, dr, 0.0, v, hT)
-    hit = hit & run
-    wb[_R_TRK * W + i] = ex1 if run else ex
-    wb[(_R_TRK + 1) * W + i] = dr1 if run else dr
-    for k in range(_NSLOT):
-        old = wb[(_R_TPS + k) * W + i]
-        wb[(_R_TPS + k) * W + i] = tp if (hit & (n == k)) else old
-    wb[_R_NTPS * W + i] = n + 1.0 if hit else n
-
-
-@nb.njit(cache=True, inline="always")
 def _lockstep(wb, W, nmax, hT):  # pragma: no cover - numba
     # nmax RK4 sub-steps of the W lanes of block wb, then the last trapezoidal points
     for s in range(nmax):
@@ -456,7 +439,7 @@ def _lockstep(wb, W, nmax, hT):  # pragma: no cover - numba
             wb[_R_TG * W + i] = TGn if run else TG
             wb[_R_XP * W + i] = xPn if run else xP
             wb[_R_XV * W + i] = xVn if run else xV
-            _lane_tracker(wb, W, i, TPn, run, hT)
+            lane_tracker(wb, W, i, TPn, run, hT, _R_TRK, _R_NTPS, _R_TPS, _NSLOT)
     sf = float(nmax)
     for i in range(W):
         R = ax.resistance(wb[_R_TP * W + i], ax.load_coefficients(wb, 0, W, i))
@@ -619,7 +602,7 @@ def _step_kernels(lockstep: bool) -> _StepKernels:
     return _StepKernels(step, step_parallel)
 
 
-for _k in (_dyn_scalar, _valve_post, _quad_point, _lane_tracker, _lockstep_bw):
+for _k in (_dyn_scalar, _valve_post, _quad_point, _lockstep_bw):
     cache_depends_on(_k)
 
 
