@@ -195,3 +195,26 @@ def test_a_jacobian_past_the_time_limit_stops_the_fit_without_a_covariance():
     # without a limit the same fit converges and has its interval
     done = fit_model(pb, max_nfev=20)
     assert done.message != STOPPED and np.isfinite(done.stderr["C"])
+
+
+def test_the_best_form_of_every_effect_that_helps_held_out_is_refitted():
+    from thermogym.identification.diagnosis.hypothesis import Candidate, Hypothesis
+    from thermogym.identification.diagnosis.select import refit_set
+
+    def screened(effect, form, train, held):
+        h = Hypothesis(candidates=(Candidate(effect, form, "y"),))
+        h.delta_ic_train, h.delta_ic = train, held
+        h.model = object()  # type: ignore[assignment]  # fitted without error
+        return h
+
+    # per-recording courses lead the training criterion by following each recording
+    courses = [screened(f"course_{i}", "walk", -500.0 + i, -40.0 + i) for i in range(4)]
+    latent = screened("phase_change", "latent heat", -27.0, -21.8)  # predicts held out
+    latent_2 = screened("phase_change", "wider range", -20.0, -5.0)  # a worse form of it
+    useless = screened("sensor_drift", "linear", -30.0, 7.2)  # worse held out
+    top = refit_set([*courses, useless, latent_2, latent], n_full=2)
+    assert top[:2] == courses[:2]  # the training criterion's best first
+    assert latent in top and latent_2 not in top  # the effect's best held-out form only
+    assert useless not in top
+    # each effect that helps held out once (four course effects, the latent heat)
+    assert len(top) == 4 + 1

@@ -226,3 +226,20 @@ def test_heat_flows_at_a_zone_enter_where_they_reach_that_zone_first():
     assert proposers._port(ctx, "T2")[0] == "T_out"
     # a disturbance on zone 1 is tried at both
     assert {c.target for c in proposers._unmeasured_disturbance(ctx)} >= {"h", "T_out"}
+
+
+def test_phase_change_admits_a_latent_heat_as_large_as_the_sensible_heat_of_the_range(tank_ctx):
+    # a tank of PCM balls stores about as much latent heat as its water does over the range
+    # it is run through: the candidate's bound must admit that, its starts span decades
+    (cand,) = proposers._phase_change(tank_ctx)
+    spec = cand.augmentations[0]
+    k_max = spec["bounds"]["kappa"][1]
+    m = tank_ctx.model
+    C, K, G = (float(m.nominal[m.param_index(p)]) for p in ("C", "K", "G"))
+    lo, hi = tank_ctx.output_range("T")
+    g_node = K * float(np.mean(tank_ctx.u[0][:, 1])) + G  # the node's linear conductance
+    # κ is in seconds of the node's linear loss per kelvin: a latent heat of κ · g_node joules
+    assert k_max * g_node >= C * (hi - lo)
+    kappas = sorted(st[f"pc_kappa_{spec['signal']}"] for st in cand.starts)
+    assert kappas[-1] / kappas[0] > 100.0
+    assert all(0.0 < k <= k_max for k in kappas)

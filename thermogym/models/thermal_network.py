@@ -619,10 +619,10 @@ class ThermalNetworkModel(Model):
         xs : ndarray or None
         """
         full = self._layout.full_theta(theta)
-        net = self.network(full)
         if self.is_linear(full) and q_ext is None and not force_rk4:
-            Ad, Bd, net = self.discrete(theta, dt)
+            Ad, Bd, net = self.discrete(theta, dt)  # the network is built on a cache miss only
             return lti_simulate(Ad, Bd, net.H, net.h0, x0, u, return_states)
+        net = self.network(full)
         if substeps is None:
             u_max = float(np.max(np.abs(u[:, :, 0])))
             nsub = self.rk4_substeps(net, dt, u_max, self.effect_values(full))

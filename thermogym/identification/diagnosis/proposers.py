@@ -779,6 +779,11 @@ def _network_node(ctx: Context) -> list[Candidate]:
     return out
 
 
+#: Largest latent heat a phase-change candidate may have, in multiples of its node's
+#: sensible heat over the recorded temperature range.
+_LATENT_SHARE = 3.0
+
+
 def _phase_change(ctx: Context) -> list[Candidate]:
     out = []
     fo = _fo(ctx)
@@ -787,9 +792,17 @@ def _phase_change(ctx: Context) -> list[Candidate]:
         if hi - lo <= 2.0:
             continue
         band = fo.get(o, {}).get("band", 0.0)
-        # the latent heat of κ seconds of the node's linear loss per kelvin: at most a
-        # tenth of a recording's worth of heat within one kelvin
-        kmax = 0.1 * ctx.duration
+        port = _port(ctx, o)
+        if port is None:
+            continue
+        # The latent heat is κ seconds of the node's linear loss per kelvin, κ·G joules. The
+        # node's sensible heat over the recorded range is C·(hi − lo) = τ·G·(hi − lo), with τ
+        # the port's time constant (half-response time / ln 2; the shortest recording when
+        # the response is slower). A latent heat up to three times that sensible heat: a
+        # material that stores more than that would dominate the recording.
+        t_half = ctx.response_time(port[0], o)
+        tau = min(t_half / math.log(2.0), ctx.duration) if math.isfinite(t_half) else ctx.duration
+        kmax = _LATENT_SHARE * max(tau, ctx.dt_min) * (hi - lo)
         spec = _loop_spec(
             ctx,
             o,
@@ -810,8 +823,14 @@ def _phase_change(ctx: Context) -> list[Candidate]:
                 "latent heat (Gaussian melting range)",
                 o,
                 (spec,),
-                starts=_starts(
-                    {f"pc_kappa_{o}": (0.01 * kmax, 0.3 * kmax), f"pc_T_{o}": (lo, hi)}, 4
+                # κ spans decades (a few grams of wax on a plate to a tank of PCM balls):
+                # its starts are spread on a log scale, from 1e-4 to 0.3 of the bound
+                starts=tuple(
+                    {f"pc_kappa_{o}": math.exp(st["log_kappa"]), f"pc_T_{o}": st["T"]}
+                    for st in _starts(
+                        {"log_kappa": (math.log(1e-4 * kmax), math.log(0.3 * kmax)), "T": (lo, hi)},
+                        8,
+                    )
                 ),
                 evidence=f"residual of {o} concentrated in a temperature band (η² up to "
                 f"{band:.2f})",

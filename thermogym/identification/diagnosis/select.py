@@ -506,6 +506,28 @@ def _key(h: Hypothesis) -> float:
     return h.delta_ic if h.ok and math.isfinite(h.delta_ic) else math.inf
 
 
+def refit_set(screened: Sequence[Hypothesis], n_full: int) -> list[Hypothesis]:
+    """The screened hypotheses a round refits jointly, in the order they are refitted.
+
+    The ``n_full`` best by the training criterion, the best few by the held-out one, and
+    the best form of every effect that already helps held out (``delta_ic < 0``): a
+    per-recording course leads the training criterion by following each recording, so a
+    hypothesis that predicts the held-out data can rank low there (a latent heat that
+    only part of the training range crosses) and still be the strongest evidence.
+    """
+    ok = sorted(screened, key=lambda h: h.delta_ic_train)
+    held = sorted(ok, key=_key)
+    top = ok[:n_full]
+    by_effect: dict[str, Hypothesis] = {}
+    for h in held:
+        if h.delta_ic < 0:
+            by_effect.setdefault(_added(h).effect, h)
+    for h in [*held[: max(2, n_full // 3)], *by_effect.values()]:
+        if h not in top:
+            top.append(h)
+    return top
+
+
 def _round(
     spec: NominalSpec,
     current: Hypothesis,
@@ -535,13 +557,7 @@ def _round(
             )
             break
         screened.append(fit_hypothesis(spec, current, c, data, nominal, screen=True))
-    ok = sorted((h for h in screened if not h.error), key=lambda h: h.delta_ic_train)
-    # the best by the training criterion, and by the held-out one (a screened fit that
-    # already helps held out is worth a joint refit even if its training gain is modest)
-    top = ok[:n_full]
-    for h in sorted(ok, key=_key)[: max(2, n_full // 3)]:
-        if h not in top:
-            top.append(h)
+    top = refit_set([h for h in screened if not h.error], n_full)
     fitted = []
     for j, hs in enumerate(top):
         if data.expired:
