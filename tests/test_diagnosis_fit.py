@@ -218,3 +218,33 @@ def test_the_best_form_of_every_effect_that_helps_held_out_is_refitted():
     assert useless not in top
     # each effect that helps held out once (four course effects, the latent heat)
     assert len(top) == 4 + 1
+
+
+def test_a_small_second_effect_beside_a_dominant_first_is_material():
+    from thermogym.identification.diagnosis.hypothesis import Candidate, Hypothesis
+    from thermogym.identification.diagnosis.select import (
+        MIN_SHARE,
+        MIN_SHARE_FLOOR,
+        material_share,
+    )
+
+    def hyp(explained, n_effects):
+        h = Hypothesis(candidates=tuple(Candidate(f"e{i}", "f", "y") for i in range(n_effects)))
+        h.explained = explained
+        return h
+
+    # a dead zone carrying 95.1 % of the nominal error, a drift removing 98 % of the rest
+    dead_zone = hyp(0.951, 1)
+    assert material_share(hyp(0.999, 2), dead_zone)
+    # the same gain as a first effect is not material (a re-calibrated model that explains
+    # much leaves no licence to keep less)
+    recalibrated = hyp(0.951, 0)
+    assert not material_share(hyp(0.999, 1), recalibrated)
+    # a second effect removing a small part of what the first leaves is not material
+    assert not material_share(hyp(0.951 + 0.2 * 0.049, 2), dead_zone)
+    # once two effects removed nearly all of it, half the rest is below the floor
+    two = hyp(0.9992, 2)
+    assert not material_share(hyp(0.9992 + 0.6 * 0.0008, 3), two)
+    assert 0.6 * 0.0008 < MIN_SHARE_FLOOR < MIN_SHARE
+    # a first effect of MIN_SHARE is material whatever came before
+    assert material_share(hyp(MIN_SHARE, 1), hyp(0.0, 0))

@@ -70,6 +70,14 @@ MAX_EFFECTS = 3
 BEAM = 2
 #: Least share of the nominal model's systematic held-out error a kept effect removes.
 MIN_SHARE = 0.05
+#: ... or, on top of kept effects, least share of the systematic held-out error they leave:
+#: a small second effect beside a dominant first one (a 0.3 K/h drift beside a dead zone
+#: that carries 95 % of the error) removes nearly all of what is left, where what a first
+#: effect of a slightly wrong form leaves for a second one to mop up is a part of it.
+MIN_SHARE_LEFT = 0.5
+#: ... and never less than this share of the nominal model's error (once two effects have
+#: removed 99.9 % of it, half of the rest is any course's share of the coloured noise).
+MIN_SHARE_FLOOR = 0.01
 #: Least RMS change of some output's held-out prediction a kept effect makes, in units of
 #: that output's white-noise level. Loggers' own coloured noise (1/f and Gauss-Markov
 #: wander of thermocouples, RTDs and their amplifiers) is commonly of the order of the
@@ -400,8 +408,10 @@ def passes(h: Hypothesis, parent: Hypothesis, m: int, data: Data | None = None) 
     ``ΔIC + 2 ln m < 0`` on the held-out data (``m`` candidates in the round:
     the extended BIC's prior over them), and material: the held-out squared
     error falls by at least :data:`MIN_SHARE` of the nominal model's
-    systematic held-out error (what an effect of the wrong form leaves behind
-    is significant at thousands of samples, but not material), and the effect
+    systematic held-out error, or by :data:`MIN_SHARE_LEFT` of what the kept
+    effects leave (:func:`material_share`; what an effect of the wrong form
+    leaves behind is significant at thousands of samples, but not material),
+    and the effect
     changes the held-out prediction of some output by at least
     ``max(data.min_snr,`` :data:`KEEP_SNR` ``)`` × that output's white-noise level
     (RMS; the materiality the detection asks of a mismatch, asked of what is to explain
@@ -418,8 +428,25 @@ def passes(h: Hypothesis, parent: Hypothesis, m: int, data: Data | None = None) 
         h.ok
         and h.delta_ic + 2.0 * math.log(max(m, 1)) < 0.0
         and h.wsse_val < parent.wsse_val
-        and h.explained - parent.explained >= MIN_SHARE
+        and material_share(h, parent)
         and (data is None or change_snr(h, parent, data) >= bar)
+    )
+
+
+def material_share(h: Hypothesis, parent: Hypothesis) -> bool:
+    """Whether ``h`` removes a material share of the systematic held-out error.
+
+    At least :data:`MIN_SHARE` of the nominal model's, or, on top of kept effects
+    (a parent with candidates that explain some), at least :data:`MIN_SHARE_LEFT` of
+    what they leave and :data:`MIN_SHARE_FLOOR` of the nominal model's (the first
+    effect always needs :data:`MIN_SHARE`: a re-calibration that leaves little is no
+    reason to keep less).
+    """
+    gain = h.explained - parent.explained
+    left = 1.0 - parent.explained
+    on_top = bool(parent.candidates) and parent.explained > 0.0
+    return bool(
+        gain >= MIN_SHARE or (on_top and gain >= max(MIN_SHARE_LEFT * left, MIN_SHARE_FLOOR))
     )
 
 
