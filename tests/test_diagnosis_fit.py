@@ -248,3 +248,8 @@ def test_a_small_second_effect_beside_a_dominant_first_is_material():
     assert 0.6 * 0.0008 < MIN_SHARE_FLOOR < MIN_SHARE
     # a first effect of MIN_SHARE is material whatever came before
     assert material_share(hyp(MIN_SHARE, 1), hyp(0.0, 0))
+    # a course re-estimated in every recording can follow what the first effect leaves: it
+    # needs MIN_SHARE of the nominal error whatever came before
+    course = hyp(0.999, 2)
+    course.k_local = 6
+    assert not material_share(course, dead_zone)

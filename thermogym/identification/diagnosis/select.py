@@ -436,15 +436,20 @@ def passes(h: Hypothesis, parent: Hypothesis, m: int, data: Data | None = None) 
 def material_share(h: Hypothesis, parent: Hypothesis) -> bool:
     """Whether ``h`` removes a material share of the systematic held-out error.
 
-    At least :data:`MIN_SHARE` of the nominal model's, or, on top of kept effects
-    (a parent with candidates that explain some), at least :data:`MIN_SHARE_LEFT` of
+    At least :data:`MIN_SHARE` of the nominal model's, or, for an effect that does not
+    follow each recording (:func:`follows_recordings`) on top of kept effects (a parent
+    with candidates that explain some), at least :data:`MIN_SHARE_LEFT` of
     what they leave and :data:`MIN_SHARE_FLOOR` of the nominal model's (the first
     effect always needs :data:`MIN_SHARE`: a re-calibration that leaves little is no
     reason to keep less).
     """
     gain = h.explained - parent.explained
     left = 1.0 - parent.explained
-    on_top = bool(parent.candidates) and parent.explained > 0.0
+    # courses re-estimated in every recording can follow what any first effect leaves (coloured
+    # noise, a form slightly off): the relative share is asked only of effects that cannot
+    on_top = (
+        bool(parent.candidates) and parent.explained > 0.0 and not follows_recordings(h, parent)
+    )
     return bool(
         gain >= MIN_SHARE or (on_top and gain >= max(MIN_SHARE_LEFT * left, MIN_SHARE_FLOOR))
     )
