@@ -12,7 +12,9 @@ recording; the initial state of every recording is estimated too.
 **Screening.** Every candidate is first fitted with only its own parameters
 free (a few iterations: a Jacobian of ``k + 1`` simulations instead of
 ``P + k + 1``) and ranked by the information criterion of its training fit
-(:mod:`.scoring`). The best are refitted jointly and scored on held-out data.
+(:mod:`.scoring`). The best by the training criterion, and the best held-out
+form of every effect that helps held out (:func:`refit_set`), are refitted
+jointly and scored on held-out data.
 
 **Forward selection.** The hypothesis with the lowest held-out ΔIC is kept
 when it passes (:func:`passes`); a hypothesis that predicts the held-out
@@ -411,8 +413,7 @@ def passes(h: Hypothesis, parent: Hypothesis, m: int, data: Data | None = None) 
     systematic held-out error, or by :data:`MIN_SHARE_LEFT` of what the kept
     effects leave (:func:`material_share`; what an effect of the wrong form
     leaves behind is significant at thousands of samples, but not material),
-    and the effect
-    changes the held-out prediction of some output by at least
+    and the effect changes the held-out prediction of some output by at least
     ``max(data.min_snr,`` :data:`KEEP_SNR` ``)`` × that output's white-noise level
     (RMS; the materiality the detection asks of a mismatch, asked of what is to explain
     it, and at least what the sensor's own coloured noise could make where the hypothesis
