@@ -100,7 +100,9 @@ def node_truth(
     ``mass`` (``(C2, G2)``: a mass coupled to the block), ``ramp`` (relative change of G
     per hour), ``disturbance`` (amplitude [W], period [s] of a heat flow), ``forced``
     (extra conductance [W/K] at full command, growing as the command^0.8: a fan), ``offset``,
-    ``lag`` (sensor time constant [s]), ``drift`` (K/h).
+    ``lag`` (sensor time constant [s]), ``drift`` (K/h), ``draws`` (``(G_d, T_c)``: water
+    drawn off through a conductance G_d [W/K] to cold water at T_c while ``draw_on`` [0/1
+    per sample] is 1).
     """
     e = dict(effects or {})
     c = {**TRUE, **(consts or {})}
@@ -130,6 +132,9 @@ def node_truth(
         if e.get("disturbance"):
             amp, per = e["disturbance"]
             loss -= amp * np.sin(2 * np.pi * t / per)
+        if e.get("draws") and draw_now[0]:
+            g_d, t_c = e["draws"]
+            loss += g_d * (T - t_c)
         flow2 = G2 * (T - T2) if C2 else 0.0
         dT = (q - loss - flow2) / C
         dT2 = flow2 / C2 if C2 else 0.0
@@ -137,6 +142,8 @@ def node_truth(
         return np.array([dT, dT2, dTs])
 
     u_now = [0.0]
+    draw_now = [0.0]
+    draw_on = np.asarray(e.get("draw_on", np.zeros(n)), dtype=float)
     T = np.empty(n)
     start = T0 if T0 is not None else ta[0]
     x = np.array([start, start, start])
@@ -145,6 +152,7 @@ def node_truth(
         T[k] = x[2] if tau_s else x[0]
         q = P * cmd[k] / 100.0
         u_now[0] = u[k]
+        draw_now[0] = draw_on[k]
         for s in range(sub):
             t = k * dt + s * h
             k1 = rhs(t, x, q, ta[k])
@@ -178,7 +186,9 @@ def node_recordings(
 
     Each recording starts after 30 min of unrecorded operation (not at rest)
     and carries white plus coloured sensor noise. ``train_levels``: the
-    training recordings cycle through these command levels only.
+    training recordings cycle through these command levels only. With
+    ``draws`` among the effects, each recording has its own draw-offs of
+    two minutes every 15 to 40 minutes, at random times.
     """
     rng = np.random.default_rng(seed)
     recs = []
@@ -197,7 +207,15 @@ def node_recordings(
         u = np.concatenate(levels)[: warm + n]
         t = np.arange(warm + n) * dt
         ta = 21.0 + 1.5 * np.sin(2 * np.pi * (t + 3000 * r) / 7200.0)
-        T = node_truth(u, ta, dt, effects=effects, consts=consts)
+        eff = dict(effects or {})
+        if eff.get("draws"):
+            on = np.zeros(warm + n)
+            k = int(rng.uniform(300.0, 1500.0) / dt)
+            while k < on.size:
+                on[k : k + int(120.0 / dt)] = 1.0
+                k += int(rng.uniform(900.0, 2400.0) / dt)
+            eff["draw_on"] = on
+        T = node_truth(u, ta, dt, effects=eff, consts=consts)
         y = T[warm:] + white * rng.standard_normal(n)
         y = y + gauss_markov(n, dt, coloured, tau_noise, rng)
         recs.append(

@@ -10,7 +10,11 @@ and :mod:`~thermogym.models._augment_sensor`, indexed by
 Parameters whose values belong to one recording (a disturbance's course, the
 supply's wander) are in the parameter group ``"local"`` (:data:`LOCAL`): the
 diagnosis fits them separately in every recording; a model used elsewhere runs
-with them at their neutral values. Courses over time (:class:`_CourseMixin`)
+with them at their neutral values. Parameters in the group ``"recorded"``
+(:data:`RECORDED`: the times of disturbance events read from a recording's
+residual) also belong to one recording, but are never fitted: the diagnosis
+hands their values in per recording, and counts them as what they cost.
+Courses over time (:class:`_CourseMixin`)
 are piecewise constant (``steps``) or piecewise linear (``smooth``) on
 ``segments`` equal intervals of ``span`` seconds from the recording's start.
 """
@@ -29,11 +33,13 @@ from scipy.signal import lfilter
 from thermogym.errors import ConfigError
 from thermogym.models.base import Model, Parameter
 
-__all__ = ["LOCAL"]
+__all__ = ["LOCAL", "RECORDED"]
 
 _PROV = "fitted by thermogym diagnosis; the neutral value switches the effect off"
 #: Parameter group of per-recording parameters.
 LOCAL = "local"
+#: Parameter group of per-recording values read from the data (never fitted).
+RECORDED = "recorded"
 _TEMP = ("°C", "K", "degC")
 
 

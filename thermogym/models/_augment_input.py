@@ -13,6 +13,7 @@ import numpy as np
 from thermogym.errors import ConfigError, SimulationError
 from thermogym.models._augment_base import (
     LOCAL,
+    RECORDED,
     _AddsCourse,
     _Aug,
     _bounds,
@@ -143,7 +144,16 @@ class _Disturbance(_Aug):
 
 
 class _DisturbanceForm(_AddsCourse, _Aug, _CourseMixin):
-    """An unmeasured disturbance added to a port, per recording: periodic, steps or smooth."""
+    """An unmeasured disturbance added to a port, per recording.
+
+    ``periodic``, ``steps`` and ``smooth`` are courses of the recording's time;
+    ``events`` are short on-periods at times read from the recording (a draw-off,
+    a door left open, a crowd): ``d(t) = A_s`` while an event of sign ``s`` is
+    on, else 0. The on and off times and the sign of each of ``events`` slots
+    are :data:`RECORDED` parameters (a slot with off <= on is empty); the
+    amplitudes of the negative and the positive events (``signs``: ``"-"``,
+    ``"+"`` or ``"+-"``) are fitted in every recording.
+    """
 
     effect = "unmeasured_disturbance"
     state_suffixes = ("t",)
@@ -174,10 +184,39 @@ class _DisturbanceForm(_AddsCourse, _Aug, _CourseMixin):
                 _param(f"dist_k{i}_{sig}", 0.0, *a, unit, f"disturbance on {sig}, knot {i}", LOCAL)
                 for i in range(self.n_knots)
             ]
+        elif self.form == "events":
+            self.n_events = int(spec.get("events", 8))
+            if not 1 <= self.n_events <= 64:
+                raise ConfigError(
+                    f"unmeasured_disturbance events is {self.n_events}; expected 1-64"
+                )
+            self.signs = str(spec.get("signs", "+-"))
+            if self.signs not in ("-", "+", "+-"):
+                raise ConfigError(
+                    f"unmeasured_disturbance signs is {self.signs!r}; expected '-', '+' or '+-'"
+                )
+            span = _number(spec, "span", 86400.0, self.effect)
+            self.params = [
+                _param(f"dist_ev{w}_{sig}", 0.0, *a, unit, f"{w} events on {sig}", LOCAL)
+                for s, w in (("-", "neg"), ("+", "pos"))
+                if s in self.signs
+            ]
+            for k in range(self.n_events):
+                self.params += [
+                    _param(f"dist_on{k}_{sig}", 0.0, 0.0, span, "s", f"event {k} on", RECORDED),
+                    _param(f"dist_off{k}_{sig}", 0.0, 0.0, span, "s", f"event {k} off", RECORDED),
+                    _param(f"dist_sg{k}_{sig}", 0.0, -1.0, 1.0, "1", f"event {k} sign", RECORDED),
+                ]
         else:
             raise ConfigError(
-                f"unmeasured_disturbance form {self.form!r}; forms are periodic, steps, smooth"
+                f"unmeasured_disturbance form {self.form!r}; forms are periodic, steps, smooth, "
+                "events"
             )
+
+    def describe(self) -> str:
+        if self.form == "events":
+            return f"events: up to {self.n_events} on-periods per recording, read from the data"
+        return super().describe()
 
     def course(self, p, t):
         return self._value(t, p)
@@ -186,7 +225,22 @@ class _DisturbanceForm(_AddsCourse, _Aug, _CourseMixin):
         if self.form == "periodic":
             w = 2.0 * np.pi * t / p[:, 0:1]
             return p[:, 1:2] * np.sin(w) + p[:, 2:3] * np.cos(w)
+        if self.form == "events":
+            return self._events(t, p)
         return _course(p, t, self.span, self.smooth)
+
+    def _events(self, t, p):
+        present = [s for s in "-+" if s in self.signs]  # the amplitudes' order in p
+        na = len(present)
+        amp = {s: p[:, j : j + 1] for j, s in enumerate(present)}
+        out = np.zeros(np.broadcast_shapes(t.shape, (p.shape[0], 1)))
+        for k in range(self.n_events):  # a slot at a time: (B, T) arrays, not (B, T, K)
+            on, off, sg = (p[:, na + 3 * k + j, None] for j in range(3))
+            inside = (t >= on) & (t < off)
+            for s, a in amp.items():
+                hit = inside & ((sg < 0) if s == "-" else (sg > 0))
+                out = out + np.where(hit, a, 0.0)
+        return out
 
 
 class _Supply(_Aug, _CourseMixin):

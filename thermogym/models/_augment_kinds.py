@@ -97,6 +97,7 @@ KINDS: dict[tuple[str, str], type[_Aug]] = {
     ("unmeasured_disturbance", "periodic"): _DisturbanceForm,
     ("unmeasured_disturbance", "steps"): _DisturbanceForm,
     ("unmeasured_disturbance", "smooth"): _DisturbanceForm,
+    ("unmeasured_disturbance", "events"): _DisturbanceForm,
     ("supply_variation", "steps"): _Supply,
     ("supply_variation", "smooth"): _Supply,
     ("supply_variation", "ramp"): _Supply,

@@ -24,6 +24,8 @@ augmentation (effect, form)                   side    equation (``k`` sample, ``
 transport_delay, input / output               input / ``u_i(t − τ)`` / ``y_j(t − τ)``
                                               sensor
 unmeasured_disturbance, periodic/steps/smooth input   ``port += d(t)`` (per-recording course)
+unmeasured_disturbance, events                input   ``port += A_s`` while an event is on (times
+                                                      read from each recording)
 supply_variation, steps / smooth              input   ``u_i (1 + s(t))`` (per-recording course)
 input_nonlinearity, power                     input   ``u_ref (u/u_ref)^α``
 input_nonlinearity, saturation                input   ``u (1 + c)/(1 + c|u|/u_ref)``
@@ -94,7 +96,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from thermogym.errors import ConfigError, ParameterError, ShapeError
-from thermogym.models._augment_base import LOCAL, _Aug
+from thermogym.models._augment_base import LOCAL, RECORDED, _Aug
 from thermogym.models._augment_input import _Delay
 from thermogym.models._augment_kinds import AUGMENTATIONS, kind_of
 from thermogym.models._augment_loop import _Loop
@@ -107,6 +109,7 @@ __all__ = [
     "AUGMENTATIONS",
     "LOCAL",
     "MAX_RELAXATION",
+    "RECORDED",
     "RESIDUAL_TERMS",
     "AugmentedModel",
     "register",
@@ -274,6 +277,11 @@ class AugmentedModel(Model):
     def local_params(self) -> tuple[str, ...]:
         """Parameters fitted per recording (group ``"local"``)."""
         return tuple(p.name for p in self.parameters if p.group == LOCAL)
+
+    @property
+    def recorded_params(self) -> tuple[str, ...]:
+        """Per-recording values read from the data, never fitted (group ``"recorded"``)."""
+        return tuple(p.name for p in self.parameters if p.group == RECORDED)
 
     def courses(
         self, theta: NDArray[np.float64], n: int, dt: float

@@ -49,6 +49,14 @@ class Candidate:
         The residual signature that speaks for it, in words.
     prior : float
         Signature score in [0, 1] (orders the screening; the fit decides).
+    recorded : tuple of dict
+        Per recording (training first, then held-out, as in the
+        :class:`~.context.Context`), the values of the augmentations'
+        parameters read from that recording's data (group ``"recorded"``: the
+        times of disturbance events); empty when there are none.
+    n_recorded : tuple of int
+        Per recording, how many numbers were read from it (each counts as a
+        fitted parameter of that recording in the information criterion).
     """
 
     effect: str
@@ -59,6 +67,8 @@ class Candidate:
     starts: tuple[dict[str, float], ...] = ()
     evidence: str = ""
     prior: float = 0.0
+    recorded: tuple[dict[str, float], ...] = ()
+    n_recorded: tuple[int, ...] = ()
 
     @property
     def label(self) -> str:
@@ -161,6 +171,9 @@ class Hypothesis:
     k_global, k_local : int
         Shared parameters and per-recording parameters the candidates added
         (over the nominal model).
+    k_recorded_train, k_recorded_val : int
+        Numbers the candidates read from the training and from the held-out
+        recordings, summed over them (:attr:`Candidate.n_recorded`).
     delta_ic : float
         Information criterion against the model it extends (negative: better).
     score : float
@@ -193,6 +206,8 @@ class Hypothesis:
     n_val: int = 0
     k_global: int = 0
     k_local: int = 0
+    k_recorded_train: int = 0
+    k_recorded_val: int = 0
     delta_ic: float = math.inf
     score: float = -math.inf
     delta_ic_train: float = math.inf
@@ -255,6 +270,7 @@ class Hypothesis:
             "params": self.params_table(self.extra),
             "n_extra": self.k_global,
             "n_local_per_recording": self.k_local,
+            "n_read_from_data": self.k_recorded_train + self.k_recorded_val,
             "local_params": list(self.local),
             "fit_before": self.fit_before,
             "fit_after": self.fit_after,

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from thermogym.identification.diagnosis.context import Context
+from thermogym.identification.diagnosis.events import Event, find_events, input_steps
 from thermogym.identification.diagnosis.fit import sobol_starts
 from thermogym.identification.diagnosis.hypothesis import Candidate
 from thermogym.models.thermal_network import ThermalNetworkModel
@@ -488,10 +489,18 @@ def _unmeasured_disturbance(ctx: Context) -> list[Candidate]:
     o = _targets(ctx)[0]
     out: list[Candidate] = []
     seen: set[str] = set()
+    times: list[tuple[dict[str, float], ...]] = []
     for p in (_port(ctx, o), _heat_input(ctx, o), _ambient_port(ctx, o)):
         if p is not None and p[0] not in seen:
             seen.add(p[0])
-            out += _disturbance_at(ctx, o, *p)
+            for c in _disturbance_at(ctx, o, *p):
+                if c.recorded:
+                    # events read at the same times at a second port: the same hypothesis
+                    t = tuple({k[: -len(p[0])]: v for k, v in r.items()} for r in c.recorded)
+                    if t in times:
+                        continue
+                    times.append(t)
+                out.append(c)
     return out
 
 
@@ -549,7 +558,73 @@ def _disturbance_at(ctx: Context, o: str, port: str, scale: float) -> list[Candi
                 prior=0.2,
             )
         )
+    ev = _events_candidate(ctx, o, port, amp)
+    if ev is not None:
+        out.append(ev)
     return out
+
+
+def _events_candidate(ctx: Context, o: str, port: str, amp: float) -> Candidate | None:
+    """Disturbance events at ``port`` at the times the residual of ``o`` shows them.
+
+    The times are read from every recording's residual (:mod:`.events`; the
+    held-out recordings' too, as a course's knots are fitted there); the
+    amplitudes of the negative and positive events are fitted per recording.
+    None when the training residual shows no events or is not sparse.
+    """
+    j = list(ctx.outputs).index(o)
+    t_half = ctx.response_time(port, o)
+    tau = t_half / math.log(2.0) if math.isfinite(t_half) and t_half > 0 else math.inf
+    gain = ctx.port_gain(port, o)
+    flip = -1 if math.isfinite(gain) and gain < 0 else 1
+    manip = [list(ctx.exogenous).index(i) for i in _manipulated(ctx)]
+    found: list[list[Event]] = []
+    for r, u, dt in zip(ctx.residual, ctx.u, ctx.dt, strict=True):
+        steps = input_steps(u[:, manip]) if manip else None
+        ev = find_events(r[:, j], dt, tau, steps)
+        if ev is None:
+            return None
+        found.append(ev)
+    train = [ev for ev, tr in zip(found, ctx.is_train, strict=True) if tr]
+    signs = "".join(
+        c for c, s in (("-", -1), ("+", 1)) if any(e.sign * flip == s for ev in train for e in ev)
+    )
+    if not signs:
+        return None
+    # held-out events of a sign training never showed have no amplitude: not read
+    found = [[e for e in ev if ("-" if e.sign * flip < 0 else "+") in signs] for ev in found]
+    k_max = max(1, max(len(ev) for ev in found))
+    recorded, n_read = [], []
+    for ev, dt in zip(found, ctx.dt, strict=True):
+        vals: dict[str, float] = {}
+        for k in range(k_max):
+            e = ev[k] if k < len(ev) else None
+            vals[f"dist_on{k}_{port}"] = e.start * dt if e else 0.0
+            vals[f"dist_off{k}_{port}"] = e.stop * dt if e else 0.0
+            vals[f"dist_sg{k}_{port}"] = float(e.sign * flip) if e else 0.0
+        recorded.append(vals)
+        n_read.append(2 * len(ev))
+    spec = {
+        "effect": "unmeasured_disturbance",
+        "signal": port,
+        "form": "events",
+        "events": k_max,
+        "signs": signs,
+        "span": ctx.span,
+        "bounds": {"amplitude": [-amp, amp]},
+    }
+    n_tr = sum(len(ev) for ev in train)
+    return Candidate(
+        "unmeasured_disturbance",
+        "events",
+        port,
+        (spec,),
+        evidence=f"{n_tr} sharp changes of {o}'s residual in the training recordings, "
+        "none at a step of an input (on-periods read from the residual)",
+        prior=0.4,
+        recorded=tuple(recorded),
+        n_recorded=tuple(n_read),
+    )
 
 
 def _nonlinear_heat_transfer(ctx: Context) -> list[Candidate]:

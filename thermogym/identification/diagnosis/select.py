@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -60,7 +60,7 @@ from thermogym.identification.diagnosis.hypothesis import (
 )
 from thermogym.identification.diagnosis.scoring import delta_ic, whitened_chi2
 from thermogym.identification.metrics import fit_text, nrmse
-from thermogym.models.augmented import AugmentedModel
+from thermogym.models.augmented import RECORDED, AugmentedModel
 from thermogym.models.base import Model
 from thermogym.models.fastnet import fast_or_none
 
@@ -200,21 +200,65 @@ def held_out(
     exps: Sequence[Experiment],
     data: Data,
     local: Sequence[str],
+    recorded: Sequence[Mapping[str, float]] | None = None,
 ) -> tuple[list[NDArray[np.float64]], list[dict[str, float]]]:
-    """Simulations of held-out recordings: per-recording parameters estimated on each."""
+    """Simulations of held-out recordings: per-recording parameters estimated on each.
+
+    ``recorded`` (one dict per recording) holds the values read from each
+    recording's data (:attr:`.Candidate.recorded`); they are returned with the
+    estimated ones.
+    """
     sims, vals = [], []
-    for e in exps:
+    for i, e in enumerate(exps):
+        rec = dict(recorded[i]) if recorded else {}
         if local:
             lo, hi = _local_bounds(model, local)
-            pb = FitProblem(model, tuple(local), theta, lo, hi, [e], data.weights, data.x0)
+            pb = FitProblem(
+                model, tuple(local), theta, lo, hi, [e], data.weights, data.x0, local_values=[rec]
+            )
             out = fit_model(pb, max_nfev=15, covariance=False)
             sims.append(pb.simulate(out.z[None], 0)[0])
-            vals.append(out.local[0] if out.local else {})
+            vals.append({**(out.local[0] if out.local else {}), **rec})
         else:
-            pb = FitProblem(model, (), theta, np.zeros(0), np.zeros(0), [e], data.weights, data.x0)
+            pb = FitProblem(
+                model,
+                (),
+                theta,
+                np.zeros(0),
+                np.zeros(0),
+                [e],
+                data.weights,
+                data.x0,
+                local_values=[rec],
+            )
             sims.append(pb.simulate(np.zeros((1, 0)), 0)[0])
-            vals.append({})
+            vals.append(rec)
     return sims, vals
+
+
+def recorded_values(
+    cands: Sequence[Candidate], n: int
+) -> tuple[list[dict[str, float]], list[int]] | None:
+    """Per recording (training, then held-out), the values the candidates read from it.
+
+    None when no candidate reads any; else the merged values and, per
+    recording, how many numbers were read.
+    """
+    if not any(c.recorded for c in cands):
+        return None
+    vals: list[dict[str, float]] = [{} for _ in range(n)]
+    counts = [0] * n
+    for c in cands:
+        if not c.recorded:
+            continue
+        if len(c.recorded) != n:
+            raise ValueError(
+                f"{c.label} holds values of {len(c.recorded)} recordings; expected {n}"
+            )
+        for i in range(n):
+            vals[i].update(c.recorded[i])
+            counts[i] += int(c.n_recorded[i]) if c.n_recorded else 0
+    return vals, counts
 
 
 def _problem(
@@ -224,10 +268,21 @@ def _problem(
     bounds: dict[str, tuple[float, float]],
     exps: Sequence[Experiment],
     data: Data,
+    recorded: Sequence[Mapping[str, float]] | None = None,
 ) -> FitProblem:
     lo = np.array([bounds[p][0] for p in free])
     hi = np.array([bounds[p][1] for p in free])
-    return FitProblem(model, tuple(free), base, lo, hi, exps, data.weights, data.x0)
+    return FitProblem(
+        model,
+        tuple(free),
+        base,
+        lo,
+        hi,
+        exps,
+        data.weights,
+        data.x0,
+        local_values=[dict(r) for r in recorded] if recorded else None,
+    )
 
 
 def fit_hypothesis(
@@ -279,9 +334,12 @@ def fit_hypothesis(
         base = merge_values(parent.model, parent.theta, model)
         groups = {p.name: p.group for p in model.parameters}
         new = [p for p in model.param_names if p not in parent.model.param_names]
-        new_g = [p for p in new if groups[p] != LOCAL_GROUP]
+        new_g = [p for p in new if groups[p] not in (LOCAL_GROUP, RECORDED)]
         local = [p for p in model.param_names if groups[p] == LOCAL_GROUP]
         parent_g = [p for p in parent.free if groups.get(p) != LOCAL_GROUP]
+        n_tr = len(data.train)
+        rec = recorded_values(cands, n_tr + len(data.val))
+        rec_vals = rec[0] if rec else [{} for _ in range(n_tr + len(data.val))]
         bounds = dict(parent.bounds)
         for p in new + local:
             spec_p = model.parameters[model.param_index(p)]
@@ -307,15 +365,18 @@ def fit_hypothesis(
         h.extra = tuple(
             p
             for p in model.param_names
-            if p not in nominal.model.param_names and groups[p] != LOCAL_GROUP
+            if p not in nominal.model.param_names and groups[p] not in (LOCAL_GROUP, RECORDED)
         )
         h.local = tuple(local)
         h.k_global = len(h.extra)
         h.k_local = len(local)
+        if rec:
+            h.k_recorded_train = sum(rec[1][:n_tr])
+            h.k_recorded_val = sum(rec[1][n_tr:])
         if data.scheme == "crossfit":
-            _fit_crossfit(h, fit_with, base, free, bounds, starts, data, nfev)
+            _fit_crossfit(h, fit_with, base, free, bounds, starts, data, nfev, rec_vals)
         else:
-            pb = _problem(fit_with, free, base, bounds, data.train, data)
+            pb = _problem(fit_with, free, base, bounds, data.train, data, rec_vals[:n_tr])
             out = fit_model(
                 pb,
                 starts=starts,
@@ -331,11 +392,18 @@ def fit_hypothesis(
             if out.message == STOPPED and cand is not None:
                 data.skip(f"the fit of {cand.label} stopped at the time limit")
             h.theta = out.theta.copy()
-            for p in local:  # the model reported runs with per-recording parts neutral
+            for p in [*local, *_recorded_names(model)]:
+                # the model reported runs with per-recording parts neutral
                 h.theta[model.param_index(p)] = model.nominal[model.param_index(p)]
             h.sims_train = [pb.simulate(out.z[None], i)[0] for i in range(len(data.train))]
-            h.local_train = out.local
-            h.sims_val, h.local_val = held_out(model, out.theta, data.val, data, local)
+            h.local_train = (
+                [{**(out.local[i] if out.local else {}), **rec_vals[i]} for i in range(n_tr)]
+                if (out.local or rec)
+                else out.local
+            )
+            h.sims_val, h.local_val = held_out(
+                model, out.theta, data.val, data, local, rec_vals[n_tr:] if rec else None
+            )
     except Exception as e:  # a hypothesis that cannot be fitted is reported, not fatal
         h.error = f"{type(e).__name__}: {e}"
         h.seconds = time.perf_counter() - t0
@@ -345,27 +413,37 @@ def fit_hypothesis(
     return h
 
 
-def _fit_crossfit(h, fit_with, base, free, bounds, starts, data, nfev) -> None:
-    """Leave one held-out recording out at a time; the reported model fitted on all."""
+def _fit_crossfit(h, fit_with, base, free, bounds, starts, data, nfev, rec_vals) -> None:
+    """Leave one held-out recording out at a time; the reported model fitted on all.
+
+    ``rec_vals``: per recording (training, then held-out), values read from its data.
+    """
+    n_tr = len(data.train)
     sims_val, local_val = [], []
     for k in range(len(data.val)):
+        keep = [*range(n_tr), *[n_tr + i for i in range(len(data.val)) if i != k]]
         fit_set = [*data.train, *[e for i, e in enumerate(data.val) if i != k]]
-        pb = _problem(fit_with, free, base, bounds, fit_set, data)
+        pb = _problem(fit_with, free, base, bounds, fit_set, data, [rec_vals[i] for i in keep])
         out = fit_model(
             pb, starts=starts, n_refine=1, max_nfev=nfev, deadline=data.deadline, covariance=False
         )
-        s, v = held_out(h.model, out.theta, [data.val[k]], data, h.local)
+        s, v = held_out(h.model, out.theta, [data.val[k]], data, h.local, [rec_vals[n_tr + k]])
         sims_val += s
         local_val += v
-    pb = _problem(fit_with, free, base, bounds, [*data.train, *data.val], data)
+    pb = _problem(fit_with, free, base, bounds, [*data.train, *data.val], data, rec_vals)
     out = fit_model(pb, starts=starts, n_refine=1, max_nfev=nfev, deadline=data.deadline)
     h.outcome = out
     h.theta = out.theta.copy()
-    for p in h.local:
+    for p in [*h.local, *_recorded_names(h.model)]:
         h.theta[h.model.param_index(p)] = h.model.nominal[h.model.param_index(p)]
     h.sims_train = [pb.simulate(out.z[None], i)[0] for i in range(len(data.train))]
-    h.local_train = out.local[: len(data.train)]
+    h.local_train = [{**(out.local[i] if out.local else {}), **rec_vals[i]} for i in range(n_tr)]
     h.sims_val, h.local_val = sims_val, local_val
+
+
+def _recorded_names(model: Model) -> list[str]:
+    """Parameters of ``model`` read from each recording's data (never fitted)."""
+    return [p.name for p in model.parameters if p.group == RECORDED]
 
 
 def residuals_of(h: Hypothesis, data: Data) -> tuple[list[NDArray], list[NDArray]]:
@@ -389,10 +467,13 @@ def _score(h: Hypothesis, parent: Hypothesis, nominal: Hypothesis, data: Data, o
     par_tr, par_va = residuals_of(parent, data)
     dk_g = h.k_global - parent.k_global
     dk_l = h.k_local - parent.k_local
+    # numbers read from a recording's data cost what a parameter fitted on it costs
+    dk_rv = h.k_recorded_val - parent.k_recorded_val
+    dk_rt = h.k_recorded_train - parent.k_recorded_train
     h.chi2_val, n_va = whitened_chi2(par_va, res_va)
     h.chi2_train, n_tr = whitened_chi2(par_tr, res_tr)
-    h.delta_ic = delta_ic(h.chi2_val, dk_g + len(data.val) * dk_l, n_va)
-    h.delta_ic_train = delta_ic(h.chi2_train, dk_g + len(data.train) * dk_l, n_tr)
+    h.delta_ic = delta_ic(h.chi2_val, dk_g + len(data.val) * dk_l + dk_rv, n_va)
+    h.delta_ic_train = delta_ic(h.chi2_train, dk_g + len(data.train) * dk_l + dk_rt, n_tr)
     h.score = -h.delta_ic if math.isfinite(h.delta_ic) else -math.inf
     s0 = nominal.wsse_val
     floor = nominal.baseline.get("noise_floor", 0.0) if nominal.baseline else 0.0
@@ -645,7 +726,9 @@ def _round(
     # evidence of physics
     survived = 0
     for h in sorted(fitted, key=_key):  # the best first; at most BEAM survivors are tested
-        n_new = h.k_local - current.k_local
+        # knots per recording of the baseline: as many as the hypothesis fits or reads there
+        read = (h.k_recorded_val - current.k_recorded_val) / max(1, len(data.val))
+        n_new = min(64, h.k_local - current.k_local + math.ceil(read))
         if not (oks[id(h)] and n_new >= 2 and data.course_baseline is not None):
             continue
         if survived >= BEAM:

@@ -182,6 +182,9 @@ def _stage_report(st: _Run) -> DiagnosisReport:
             "named_effects": named,
             "notes": [n for s in steps for n in s.notes],
         }
+        events = _events_read(final, [e.name for e in (*st.tr, *st.va)])
+        if events:
+            report.best["events"] = events
         _finalise(report, final, st, data)
     else:
         eff = named[0]
@@ -326,6 +329,33 @@ def _finalise(
             CATALOGUE[c.effect].explanation[:80] for c in final.candidates if c.effect in CATALOGUE
         ),
     )
+
+
+def _events_read(final: Hypothesis, names: list[str]) -> list[dict[str, Any]]:
+    """Disturbance events the final model read from each recording, with their sizes.
+
+    ``[{"recording", "port", "events": [{"on_s", "off_s", "amplitude"}, ...]}, ...]``
+    (times since the recording's start; training recordings first).
+    """
+    out: list[dict[str, Any]] = []
+    vals = [*final.local_train, *final.local_val]
+    if len(vals) != len(names):
+        return out
+    for c in final.candidates:
+        if not c.recorded:
+            continue
+        port = c.augmentations[0]["signal"]
+        for name, v in zip(names, vals, strict=True):
+            rows, k = [], 0
+            while f"dist_on{k}_{port}" in v:
+                on, off = v[f"dist_on{k}_{port}"], v[f"dist_off{k}_{port}"]
+                sg = v[f"dist_sg{k}_{port}"]
+                amp = v.get(f"dist_ev{'neg' if sg < 0 else 'pos'}_{port}", math.nan)
+                if off > on and sg != 0:
+                    rows.append({"on_s": on, "off_s": off, "amplitude": amp})
+                k += 1
+            out.append({"recording": name, "port": port, "events": rows})
+    return out
 
 
 def _build_fit(

@@ -1,0 +1,203 @@
+"""Disturbance events read from a residual: the change points of a step-wise disturbance.
+
+A draw-off from a hot-water tank, a door left open, a crowd in a room: an
+unmeasured heat flow that switches on and off at times nobody logged. Through
+a plant whose response to the port is close to first order with time constant
+``τ``, the residual of the output obeys ``r[k+1] = a r[k] + g (1 − a) d[k]``
+with ``a = exp(−Δt/τ)``, so the inverse filter ::
+
+    e[k] = r[k+1] − a r[k]
+
+is the disturbance itself, sample by sample (scaled), plus the noise's own
+increments. Where ``d`` is zero most of the time and switches to a level for
+a while, ``e`` is zero-centred noise with runs of large values of one sign:
+the events. They are found as runs beyond :data:`Z_EVENT` robust standard
+deviations of ``e`` (the median absolute deviation: the events themselves
+leave it nearly untouched), merged across single-sample gaps. Two patterns
+are not disturbances and are dropped:
+
+* a one-sample run followed at once by one of the other sign and a similar
+  size: a spike of the sensor (an outlier in one reading gives ``+, −``
+  through the inverse filter, a heat pulse gives one run);
+* a run whose start and end both fall on steps of a manipulated input: the
+  input's own effect (a wrong gain while a heater is on), not something
+  nobody logged.
+
+A residual with more than :data:`MAX_EVENTS` runs in a recording, or runs over
+more than :data:`MAX_SHARE` of its samples, is not sparse: a course of the
+recording's time (``steps``, ``smooth``) describes it, not events.
+
+Nothing here knows a plant: the time constant and the input steps are the
+caller's (the nominal model's response time to the port, the recorded
+inputs).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["MAX_EVENTS", "MAX_SHARE", "Z_EVENT", "Event", "find_events", "input_steps"]
+
+#: Robust standard deviations of the inverse-filtered residual an event exceeds: the tail of
+#: Gaussian noise beyond 6 σ is 2·10⁻⁹ per sample, so noise alone gives none in a year at 1 Hz.
+Z_EVENT = 6.0
+#: Most events in one recording (the augmentation's slot limit).
+MAX_EVENTS = 64
+#: Largest share of a recording's samples inside events.
+MAX_SHARE = 0.25
+
+
+@dataclass(frozen=True)
+class Event:
+    """One on-period: samples ``start`` to ``stop − 1``, ``sign`` of the residual's jump."""
+
+    start: int
+    stop: int
+    sign: int
+    size: float
+
+
+def input_steps(u: NDArray[np.float64], ratio: float = 5.0) -> NDArray[np.bool_]:
+    """Samples at which some column of ``u`` (T, n) steps: ``u[k] ≠ u[k−1]`` by much.
+
+    A change counts when it exceeds ``ratio`` times the column's median
+    absolute change and a thousandth of its range (a modulating input varying
+    every sample steps only where it jumps).
+
+    Examples
+    --------
+    >>> u = np.zeros((10, 1)); u[4:, 0] = 1.0
+    >>> np.flatnonzero(input_steps(u)).tolist()
+    [4]
+    """
+    u = np.asarray(u, dtype=float).reshape(u.shape[0], -1)
+    out = np.zeros(u.shape[0], dtype=bool)
+    if u.shape[0] < 2:
+        return out
+    du = np.abs(np.diff(u, axis=0))
+    for j in range(u.shape[1]):
+        d = du[:, j]
+        ok = np.isfinite(d)
+        if not ok.any():
+            continue
+        rng = float(np.nanmax(u[:, j]) - np.nanmin(u[:, j]))
+        thr = max(ratio * float(np.median(d[ok])), 1e-3 * rng)
+        if thr <= 0:
+            continue
+        out[1:] |= ok & (d > thr)
+    return out
+
+
+def find_events(
+    r: NDArray[np.float64],
+    dt: float,
+    tau: float,
+    steps: NDArray[np.bool_] | None = None,
+    z: float = Z_EVENT,
+) -> list[Event] | None:
+    """Events of one recording's residual ``r`` (T,), or None when it is not sparse.
+
+    Parameters
+    ----------
+    r : ndarray, shape (T,)
+        Residual of one output (NaN where not measured).
+    dt : float
+        Sample period [s].
+    tau : float
+        Time constant [s] of the output's response to the port (``inf``: the
+        residual's increments are taken as they are).
+    steps : ndarray of bool, shape (T,), optional
+        Samples where a manipulated input steps (:func:`input_steps`).
+    z : float
+        Threshold in robust standard deviations.
+
+    Returns
+    -------
+    list of Event or None
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> a, d = np.exp(-30.0 / 3600.0), np.zeros(960)
+    >>> d[200:208] = -1.0; d[600:608] = -1.0
+    >>> r = np.zeros(960)
+    >>> for k in range(959):
+    ...     r[k + 1] = a * r[k] + (1 - a) * 50.0 * d[k]
+    >>> ev = find_events(r + 0.01 * rng.standard_normal(960), 30.0, 3600.0)
+    >>> [(e.start, e.stop, e.sign) for e in ev]
+    [(200, 208, -1), (600, 608, -1)]
+    """
+    r = np.asarray(r, dtype=float).reshape(-1)
+    if r.size < 8:
+        return []
+    a = math.exp(-dt / tau) if math.isfinite(tau) and tau > 0 else 1.0
+    e = r[1:] - a * r[:-1]
+    ok = np.isfinite(e)
+    if ok.sum() < 8:
+        return []
+    med = float(np.median(e[ok]))
+    c = np.where(ok, e - med, 0.0)
+    peak = float(np.max(np.abs(c)))
+    if not peak > 0:
+        return []
+    # a residual without noise (a simulation) has no spread between its jumps: a floor
+    s = max(1.4826 * float(np.median(np.abs(e[ok] - med))), 1e-9 * peak)
+    sign = np.where(c > z * s, 1, np.where(c < -z * s, -1, 0))
+    runs = _runs(sign, c)
+    runs = _drop_spikes(runs)
+    if steps is not None:
+        st = np.asarray(steps, dtype=bool)
+        near = st | np.roll(st, 1) | np.roll(st, -1)
+        near[0] = near[0] or bool(st[0])
+
+        def on_step(k: int) -> bool:
+            return bool(near[min(max(k, 0), near.size - 1)])
+
+        runs = [ev for ev in runs if not (on_step(ev.start) and on_step(ev.stop))]
+    inside = sum(ev.stop - ev.start for ev in runs)
+    if len(runs) > MAX_EVENTS or inside > MAX_SHARE * r.size:
+        return None
+    return runs
+
+
+def _runs(sign: NDArray[np.int64], c: NDArray[np.float64]) -> list[Event]:
+    """Runs of one sign, merged across gaps of one sample."""
+    out: list[Event] = []
+    k, n = 0, sign.size
+    while k < n:
+        if sign[k] == 0:
+            k += 1
+            continue
+        s0, j = int(sign[k]), k + 1
+        while j < n and (sign[j] == s0 or (j + 1 < n and sign[j] == 0 and sign[j + 1] == s0)):
+            j += 1
+        out.append(Event(k, j, s0, float(np.mean(np.abs(c[k:j])))))
+        k = j
+    return out
+
+
+def _drop_spikes(runs: Sequence[Event]) -> list[Event]:
+    """Drop one-sample pairs ``+, −`` (or ``−, +``) of a similar size: a sensor's outlier."""
+    out: list[Event] = []
+    i = 0
+    while i < len(runs):
+        a = runs[i]
+        if i + 1 < len(runs):
+            b = runs[i + 1]
+            if (
+                a.stop - a.start == 1
+                and b.stop - b.start == 1
+                and b.start == a.stop
+                and a.sign == -b.sign
+                and 0.5 <= a.size / b.size <= 2.0
+            ):
+                i += 2
+                continue
+        out.append(a)
+        i += 1
+    return out
