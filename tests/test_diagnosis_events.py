@@ -48,6 +48,16 @@ def test_a_sensor_spike_and_noise_alone_are_not_events():
     assert find_events(r, DT, TAU) == []
 
 
+def test_a_quantised_reading_stepping_between_levels_is_not_events():
+    # a 10-bit logger (0.32 K per count, like the TCLab's) on a slowly warming block: the
+    # reading steps one count at a time, the model's prediction is smooth
+    t = np.arange(3600.0)
+    smooth = 25.0 + 10.0 * (1.0 - np.exp(-t / 900.0))
+    noisy = smooth + 0.05 * np.random.default_rng(5).standard_normal(t.size)
+    reading = 0.32 * np.round(noisy / 0.32)
+    assert not find_events(reading - smooth, 1.0, 900.0, noise=0.32 / np.sqrt(12.0))
+
+
 def test_runs_on_the_inputs_own_steps_are_not_events():
     # a heater whose gain the model has wrong: the residual's jumps start and end where the
     # heater switches, so they are the input's own effect, not a disturbance nobody logged
@@ -59,6 +69,18 @@ def test_runs_on_the_inputs_own_steps_are_not_events():
     assert np.flatnonzero(steps).tolist() == [200, 400, 700, 800]
     assert find_events(r, DT, TAU) != []  # without the inputs' steps they look like events
     assert find_events(r, DT, TAU, steps) == []
+
+
+def test_runs_between_an_input_step_and_its_delayed_effect_are_not_events():
+    # the input acts 10 samples after it was logged (a dead time, a skewed clock): each step
+    # leaves a run as long as the delay that starts on the logged step
+    u = np.zeros((1200, 1))
+    u[200:500, 0] = 1.0
+    u[800:1000, 0] = 1.0
+    late = np.concatenate([np.zeros(10), u[:-10, 0]])
+    r = _response(late - u[:, 0]) + 0.01 * np.random.default_rng(6).standard_normal(1200)
+    assert find_events(r, DT, TAU) != []
+    assert find_events(r, DT, TAU, input_steps(u)) == []
 
 
 def test_a_residual_that_is_not_sparse_is_not_read_as_events():
@@ -74,7 +96,7 @@ def test_the_events_form_adds_its_amplitude_while_an_event_is_on():
         "signal": "u",
         "form": "events",
         "events": 2,
-        "signs": "+-",
+        "signs": "-+",
         "span": 7200.0,
     }
     m = AugmentedModel(NodeModel(), None, [spec])

@@ -152,7 +152,7 @@ class _DisturbanceForm(_AddsCourse, _Aug, _CourseMixin):
     on, else 0. The on and off times and the sign of each of ``events`` slots
     are :data:`RECORDED` parameters (a slot with off <= on is empty); the
     amplitudes of the negative and the positive events (``signs``: ``"-"``,
-    ``"+"`` or ``"+-"``) are fitted in every recording.
+    ``"+"`` or ``"-+"``) are fitted in every recording.
     """
 
     effect = "unmeasured_disturbance"
@@ -190,10 +190,14 @@ class _DisturbanceForm(_AddsCourse, _Aug, _CourseMixin):
                 raise ConfigError(
                     f"unmeasured_disturbance events is {self.n_events}; expected 1-64"
                 )
-            self.signs = str(spec.get("signs", "+-"))
-            if self.signs not in ("-", "+", "+-"):
+            self.signs = str(spec.get("signs", "-+"))
+            if (
+                not self.signs
+                or set(self.signs) - {"-", "+"}
+                or len(set(self.signs)) < len(self.signs)
+            ):
                 raise ConfigError(
-                    f"unmeasured_disturbance signs is {self.signs!r}; expected '-', '+' or '+-'"
+                    f"unmeasured_disturbance signs is {self.signs!r}; expected '-', '+' or '-+'"
                 )
             span = _number(spec, "span", 86400.0, self.effect)
             self.params = [

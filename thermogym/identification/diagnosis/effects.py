@@ -24,7 +24,9 @@ transport_delay                   input / output dead time        cross-correlat
                                                                   input's changes peaks late
 sensor_lag                        first-order lag                 ``e ≈ −τ dŷ/dt`` on one output
 sensor_offset / sensor_drift      constant / linear in time       constant / growing error
-unmeasured_disturbance            periodic, steps, smooth         autocorrelated, input-free
+unmeasured_disturbance            periodic, steps, smooth,        autocorrelated, input-free;
+                                  events (times read from the     events: sharp runs of the
+                                  residual, :mod:`.events`)       inverse-filtered residual
 input_nonlinearity                power, saturation, hard limit,  error depends on the input
                                   dead zone, monotone piecewise-  level
                                   linear
@@ -147,9 +149,11 @@ CATALOGUE: dict[str, Effect] = {
             "Something heats or cools the plant that no sensor records: a draught, air "
             "conditioning cycling, sun through a window, occupants, an unlogged draw-off. The "
             "recorded ambient is not what the plant sees.",
-            "autocorrelated residual unrelated to the inputs (periodic, in steps, or slow)",
+            "autocorrelated residual unrelated to the inputs (periodic, in steps, or slow), or "
+            "sharp jumps at times no input explains (events)",
             "a course added to the plant's ambient (or heat input) in every recording: "
-            "periodic (period shared, phase per recording), steps or smooth (per recording)",
+            "periodic (period shared, phase per recording), steps or smooth (per recording), or "
+            "events: on-periods at the times the residual shows, one size per recording",
         ),
         _e(
             "input_nonlinearity",

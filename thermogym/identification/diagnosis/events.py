@@ -13,15 +13,18 @@ increments. Where ``d`` is zero most of the time and switches to a level for
 a while, ``e`` is zero-centred noise with runs of large values of one sign:
 the events. They are found as runs beyond :data:`Z_EVENT` robust standard
 deviations of ``e`` (the median absolute deviation: the events themselves
-leave it nearly untouched), merged across single-sample gaps. Two patterns
-are not disturbances and are dropped:
+leave it nearly untouched; never less than the white sensor noise's own
+increments, so that a quantised reading's steps are not events), merged
+across single-sample gaps. Two patterns are not disturbances and are dropped:
 
-* a one-sample run followed at once by one of the other sign and a similar
-  size: a spike of the sensor (an outlier in one reading gives ``+, −``
-  through the inverse filter, a heat pulse gives one run);
-* a run whose start and end both fall on steps of a manipulated input: the
-  input's own effect (a wrong gain while a heater is on), not something
-  nobody logged.
+* a run of one sample: a spike of the sensor (an outlier in one reading
+  gives ``+`` then ``−``), a quantised reading stepping to its next level, or
+  an event too short for the sampling to resolve;
+* a run that starts or ends on a step of a manipulated input (within a
+  sample): the input's own effect, not something nobody logged — a wrong
+  gain while a heater is on (both edges on steps), a sensor lag (a transient
+  from each step), a dead time or a skewed clock (a run as long as the delay,
+  between the step and its effect).
 
 A residual with more than :data:`MAX_EVENTS` runs in a recording, or runs over
 more than :data:`MAX_SHARE` of its samples, is not sparse: a course of the
@@ -35,7 +38,6 @@ inputs).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -99,6 +101,7 @@ def find_events(
     tau: float,
     steps: NDArray[np.bool_] | None = None,
     z: float = Z_EVENT,
+    noise: float = 0.0,
 ) -> list[Event] | None:
     """Events of one recording's residual ``r`` (T,), or None when it is not sparse.
 
@@ -115,6 +118,9 @@ def find_events(
         Samples where a manipulated input steps (:func:`input_steps`).
     z : float
         Threshold in robust standard deviations.
+    noise : float
+        White-noise level of the reading (its standard deviation; 0 when
+        unknown): the spread of ``e`` is taken as at least ``√2·noise``.
 
     Returns
     -------
@@ -146,10 +152,13 @@ def find_events(
     if not peak > 0:
         return []
     # a residual without noise (a simulation) has no spread between its jumps: a floor
-    s = max(1.4826 * float(np.median(np.abs(e[ok] - med))), 1e-9 * peak)
+    s = max(
+        1.4826 * float(np.median(np.abs(e[ok] - med))),
+        math.sqrt(2.0) * noise if math.isfinite(noise) else 0.0,
+        1e-9 * peak,
+    )
     sign = np.where(c > z * s, 1, np.where(c < -z * s, -1, 0))
-    runs = _runs(sign, c)
-    runs = _drop_spikes(runs)
+    runs = [ev for ev in _runs(sign, c) if ev.stop - ev.start >= 2]
     if steps is not None:
         st = np.asarray(steps, dtype=bool)
         near = st | np.roll(st, 1) | np.roll(st, -1)
@@ -158,7 +167,7 @@ def find_events(
         def on_step(k: int) -> bool:
             return bool(near[min(max(k, 0), near.size - 1)])
 
-        runs = [ev for ev in runs if not (on_step(ev.start) and on_step(ev.stop))]
+        runs = [ev for ev in runs if not (on_step(ev.start) or on_step(ev.stop))]
     inside = sum(ev.stop - ev.start for ev in runs)
     if len(runs) > MAX_EVENTS or inside > MAX_SHARE * r.size:
         return None
@@ -178,26 +187,4 @@ def _runs(sign: NDArray[np.int64], c: NDArray[np.float64]) -> list[Event]:
             j += 1
         out.append(Event(k, j, s0, float(np.mean(np.abs(c[k:j])))))
         k = j
-    return out
-
-
-def _drop_spikes(runs: Sequence[Event]) -> list[Event]:
-    """Drop one-sample pairs ``+, −`` (or ``−, +``) of a similar size: a sensor's outlier."""
-    out: list[Event] = []
-    i = 0
-    while i < len(runs):
-        a = runs[i]
-        if i + 1 < len(runs):
-            b = runs[i + 1]
-            if (
-                a.stop - a.start == 1
-                and b.stop - b.start == 1
-                and b.start == a.stop
-                and a.sign == -b.sign
-                and 0.5 <= a.size / b.size <= 2.0
-            ):
-                i += 2
-                continue
-        out.append(a)
-        i += 1
     return out

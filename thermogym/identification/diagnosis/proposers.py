@@ -489,22 +489,21 @@ def _unmeasured_disturbance(ctx: Context) -> list[Candidate]:
     o = _targets(ctx)[0]
     out: list[Candidate] = []
     seen: set[str] = set()
-    times: list[tuple[dict[str, float], ...]] = []
     for p in (_port(ctx, o), _heat_input(ctx, o), _ambient_port(ctx, o)):
         if p is not None and p[0] not in seen:
             seen.add(p[0])
-            for c in _disturbance_at(ctx, o, *p):
-                if c.recorded:
-                    # events read at the same times at a second port: the same hypothesis
-                    t = tuple({k[: -len(p[0])]: v for k, v in r.items()} for r in c.recorded)
-                    if t in times:
-                        continue
-                    times.append(t)
-                out.append(c)
+            out += _disturbance_at(ctx, o, *p, events=not any(c.recorded for c in out))
     return out
 
 
-def _disturbance_at(ctx: Context, o: str, port: str, scale: float) -> list[Candidate]:
+def _disturbance_at(
+    ctx: Context, o: str, port: str, scale: float, events: bool = True
+) -> list[Candidate]:
+    """Periodic, steps and smooth courses at ``port``, and ``events`` when asked.
+
+    Events are read at the first port that reads any: their times are the
+    residual's, and that port is where the loop terms enter.
+    """
     feats = ctx.features
     amp = 10.0 * ctx.scale[o] * abs(scale)
     dur = ctx.duration
@@ -558,7 +557,7 @@ def _disturbance_at(ctx: Context, o: str, port: str, scale: float) -> list[Candi
                 prior=0.2,
             )
         )
-    ev = _events_candidate(ctx, o, port, amp)
+    ev = _events_candidate(ctx, o, port, amp) if events else None
     if ev is not None:
         out.append(ev)
     return out
@@ -581,7 +580,7 @@ def _events_candidate(ctx: Context, o: str, port: str, amp: float) -> Candidate 
     found: list[list[Event]] = []
     for r, u, dt in zip(ctx.residual, ctx.u, ctx.dt, strict=True):
         steps = input_steps(u[:, manip]) if manip else None
-        ev = find_events(r[:, j], dt, tau, steps)
+        ev = find_events(r[:, j], dt, tau, steps, noise=ctx.sigma.get(o, 0.0))
         if ev is None:
             return None
         found.append(ev)
