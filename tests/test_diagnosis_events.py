@@ -118,6 +118,14 @@ def test_the_events_form_adds_its_amplitude_while_an_event_is_on():
     want[20:30] = -30.0
     want[100:102] = 10.0
     assert np.array_equal(c[0], want)
+    # a batch whose sets read different times (the general path) agrees set by set
+    th2 = m.theta(vals)
+    th2 = np.vstack([th2, th2])
+    th2[1, m.param_index("dist_on0_u")] = 660.0
+    ((_, _, cb),) = m.courses(th2, 240, 30.0)
+    want2 = want.copy()
+    want2[20:22] = 0.0
+    assert np.array_equal(cb[0], want) and np.array_equal(cb[1], want2)
     # an empty slot (off <= on) adds nothing; all slots neutral: the model as it was
     ((_, _, c0),) = m.courses(m.theta(dict(TRUE)), 240, 30.0)
     assert not c0.any()

@@ -237,6 +237,19 @@ class _DisturbanceForm(_AddsCourse, _Aug, _CourseMixin):
         present = [s for s in "-+" if s in self.signs]  # the amplitudes' order in p
         na = len(present)
         amp = {s: p[:, j : j + 1] for j, s in enumerate(present)}
+        slots = p[:, na:]
+        if t.shape[0] == 1 or (np.all(slots == slots[:1]) and np.all(t == t[:1])):
+            # the usual case: the times are the recording's, the same in every set of the
+            # batch (only the amplitudes vary): one indicator per sign over the samples
+            t0, on_off = t[0], slots[0].reshape(-1, 3)
+            out = np.zeros(np.broadcast_shapes(t.shape, (p.shape[0], 1)))
+            for s, a in amp.items():
+                ind = np.zeros(t0.shape)
+                for on, off, sg in on_off:
+                    if off > on and (sg < 0 if s == "-" else sg > 0):
+                        ind[(t0 >= on) & (t0 < off)] = 1.0
+                out = out + a * ind[None, :]
+            return out
         out = np.zeros(np.broadcast_shapes(t.shape, (p.shape[0], 1)))
         for k in range(self.n_events):  # a slot at a time: (B, T) arrays, not (B, T, K)
             on, off, sg = (p[:, na + 3 * k + j, None] for j in range(3))
