@@ -158,3 +158,26 @@ def test_draw_offs_at_random_times_are_named_as_events_and_modelled(draw_off_rep
     for r in rows:
         for e in r["events"]:
             assert 60.0 <= e["off_s"] - e["on_s"] <= 240.0 and e["amplitude"] < 0
+
+
+def test_a_port_the_output_follows_within_a_sample_reads_the_residual_itself():
+    # no lag to undo (half-response at the step's own sample): the residual is the pulse
+    d = np.zeros(600)
+    d[100:106] = 1.0
+    r = d + 0.01 * np.random.default_rng(7).standard_normal(600)
+    assert [(e.start, e.stop, e.sign) for e in find_events(r, DT, 0.0)] == [(100, 106, 1)]
+
+
+def test_event_times_count_as_parameters_when_the_combination_is_chosen():
+    from thermogym.identification.diagnosis.hypothesis import Hypothesis
+    from thermogym.identification.diagnosis.select import choose_combination
+
+    two = [np.zeros((5, 1))] * 2  # two held-out recordings
+    # one size per recording, but 20 event times read from each: more freedom per recording
+    # than a six-knot course that removes nearly as much
+    events = Hypothesis(candidates=(), k_local=1, k_recorded_val=40, explained=0.90)
+    course = Hypothesis(candidates=(), k_local=6, explained=0.89)
+    events.sims_val = course.sims_val = two
+    assert choose_combination([([events], -500.0), ([course], -400.0)]) == [course]
+    events.k_recorded_val = 4  # two events per recording: 3 numbers, the simpler
+    assert choose_combination([([events], -500.0), ([course], -400.0)]) == [events]

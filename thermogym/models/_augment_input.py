@@ -238,7 +238,7 @@ class _DisturbanceForm(_AddsCourse, _Aug, _CourseMixin):
         na = len(present)
         amp = {s: p[:, j : j + 1] for j, s in enumerate(present)}
         slots = p[:, na:]
-        if t.shape[0] == 1 or (np.all(slots == slots[:1]) and np.all(t == t[:1])):
+        if p.shape[0] == 1 or (np.all(slots == slots[:1]) and np.all(t == t[:1])):
             # the usual case: the times are the recording's, the same in every set of the
             # batch (only the amplitudes vary): one indicator per sign over the samples
             t0, on_off = t[0], slots[0].reshape(-1, 3)

@@ -113,7 +113,7 @@ def find_events(
         Sample period [s].
     tau : float
         Time constant [s] of the output's response to the port (``inf``: the
-        residual's increments are taken as they are).
+        residual's increments are taken as they are; 0: the residual itself).
     steps : ndarray of bool, shape (T,), optional
         Samples where a manipulated input steps (:func:`input_steps`).
     z : float
@@ -141,8 +141,11 @@ def find_events(
     r = np.asarray(r, dtype=float).reshape(-1)
     if r.size < 8:
         return []
-    a = math.exp(-dt / tau) if math.isfinite(tau) and tau > 0 else 1.0
-    e = r[1:] - a * r[:-1]
+    if tau == 0:  # the output follows the port within its own sample: the residual itself
+        e = r.copy()
+    else:  # inf: an integrator, the residual's increments
+        a = math.exp(-dt / tau) if math.isfinite(tau) and tau > 0 else 1.0
+        e = r[1:] - a * r[:-1]
     ok = np.isfinite(e)
     if ok.sum() < 8:
         return []
@@ -161,8 +164,9 @@ def find_events(
     runs = [ev for ev in _runs(sign, c) if ev.stop - ev.start >= 2]
     if steps is not None:
         st = np.asarray(steps, dtype=bool)
-        near = st | np.roll(st, 1) | np.roll(st, -1)
-        near[0] = near[0] or bool(st[0])
+        near = st.copy()  # within a sample of a step (no wrap-around at the ends)
+        near[1:] |= st[:-1]
+        near[:-1] |= st[1:]
 
         def on_step(k: int) -> bool:
             return bool(near[min(max(k, 0), near.size - 1)])

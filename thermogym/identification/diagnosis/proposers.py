@@ -573,17 +573,18 @@ def _events_candidate(ctx: Context, o: str, port: str, amp: float) -> Candidate 
     """
     j = list(ctx.outputs).index(o)
     t_half = ctx.response_time(port, o)
-    tau = t_half / math.log(2.0) if math.isfinite(t_half) and t_half > 0 else math.inf
+    # half-response within the step's own sample: no lag to undo (tau 0); never: an integrator
+    tau = t_half / math.log(2.0) if math.isfinite(t_half) else math.inf
     gain = ctx.port_gain(port, o)
     flip = -1 if math.isfinite(gain) and gain < 0 else 1
     manip = [list(ctx.exogenous).index(i) for i in _manipulated(ctx)]
     found: list[list[Event]] = []
-    for r, u, dt in zip(ctx.residual, ctx.u, ctx.dt, strict=True):
+    for r, u, dt, tr in zip(ctx.residual, ctx.u, ctx.dt, ctx.is_train, strict=True):
         steps = input_steps(u[:, manip]) if manip else None
         ev = find_events(r[:, j], dt, tau, steps, noise=ctx.sigma.get(o, 0.0))
-        if ev is None:
-            return None
-        found.append(ev)
+        if ev is None and tr:
+            return None  # training that is not sparse: a course of time, not events
+        found.append(ev or [])  # a held-out recording that is not sparse: none read there
     train = [ev for ev, tr in zip(found, ctx.is_train, strict=True) if tr]
     signs = "".join(
         c for c, s in (("-", -1), ("+", 1)) if any(e.sign * flip == s for ev in train for e in ev)
@@ -598,8 +599,10 @@ def _events_candidate(ctx: Context, o: str, port: str, amp: float) -> Candidate 
         vals: dict[str, float] = {}
         for k in range(k_max):
             e = ev[k] if k < len(ev) else None
-            vals[f"dist_on{k}_{port}"] = e.start * dt if e else 0.0
-            vals[f"dist_off{k}_{port}"] = e.stop * dt if e else 0.0
+            # edges half a sample before the first and after the last sample on: the
+            # course's clock (k·Δt, or summed Δt step by step) falls clear of them
+            vals[f"dist_on{k}_{port}"] = max(e.start - 0.5, 0.0) * dt if e else 0.0
+            vals[f"dist_off{k}_{port}"] = (e.stop - 0.5) * dt if e else 0.0
             vals[f"dist_sg{k}_{port}"] = float(e.sign * flip) if e else 0.0
         recorded.append(vals)
         n_read.append(2 * len(ev))

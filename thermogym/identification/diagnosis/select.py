@@ -859,7 +859,7 @@ def _next_pool(pool: Sequence[Candidate], current: Hypothesis) -> list[Candidate
 def total_ic(nominal: Hypothesis, h: Hypothesis, data: Data) -> float:
     """Held-out information criterion of a whole combination against the nominal model."""
     chi2, n = whitened_chi2(residuals_of(nominal, data)[1], residuals_of(h, data)[1])
-    return delta_ic(chi2, h.k_global + len(data.val) * h.k_local, n)
+    return delta_ic(chi2, h.k_global + len(data.val) * h.k_local + h.k_recorded_val, n)
 
 
 def forward_selection(
@@ -984,19 +984,22 @@ def choose_combination(finals: Sequence[tuple[list[Hypothesis], float]]) -> list
     """
     steps, _ = min(finals, key=lambda x: x[1])
     gain = steps[-1].explained
+    k = _per_recording(steps[-1])
     simpler = [
         (s, ic)
         for s, ic in finals
-        if (
-            s[-1].k_local < steps[-1].k_local
-            or (s[-1].k_local == steps[-1].k_local and len(s) < len(steps))
-        )
+        if (_per_recording(s[-1]) < k or (_per_recording(s[-1]) == k and len(s) < len(steps)))
         and gain > 0
         and s[-1].explained >= PREDICTIVE_SHARE * gain
     ]
     if simpler:
-        steps, _ = min(simpler, key=lambda x: (x[0][-1].k_local, len(x[0]), x[1]))
+        steps, _ = min(simpler, key=lambda x: (_per_recording(x[0][-1]), len(x[0]), x[1]))
     return steps
+
+
+def _per_recording(h: Hypothesis) -> float:
+    """Numbers fitted on or read from each held-out recording (a course's knots, event times)."""
+    return h.k_local + h.k_recorded_val / max(1, len(h.sims_val))
 
 
 def _labels(steps: Sequence[Hypothesis]) -> frozenset[str]:
