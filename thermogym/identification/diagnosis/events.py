@@ -61,7 +61,6 @@ class Event:
     start: int
     stop: int
     sign: int
-    size: float
 
 
 def input_steps(u: NDArray[np.float64], ratio: float = 5.0) -> NDArray[np.bool_]:
@@ -161,24 +160,21 @@ def find_events(
         1e-9 * peak,
     )
     sign = np.where(c > z * s, 1, np.where(c < -z * s, -1, 0))
-    runs = [ev for ev in _runs(sign, c) if ev.stop - ev.start >= 2]
+    runs = [ev for ev in _runs(sign) if ev.stop - ev.start >= 2]
     if steps is not None:
         st = np.asarray(steps, dtype=bool)
         near = st.copy()  # within a sample of a step (no wrap-around at the ends)
         near[1:] |= st[:-1]
         near[:-1] |= st[1:]
-
-        def on_step(k: int) -> bool:
-            return bool(near[min(max(k, 0), near.size - 1)])
-
-        runs = [ev for ev in runs if not (on_step(ev.start) or on_step(ev.stop))]
+        last = near.size - 1
+        runs = [ev for ev in runs if not (near[min(ev.start, last)] or near[min(ev.stop, last)])]
     inside = sum(ev.stop - ev.start for ev in runs)
     if len(runs) > MAX_EVENTS or inside > MAX_SHARE * r.size:
         return None
     return runs
 
 
-def _runs(sign: NDArray[np.int64], c: NDArray[np.float64]) -> list[Event]:
+def _runs(sign: NDArray[np.int64]) -> list[Event]:
     """Runs of one sign, merged across gaps of one sample."""
     out: list[Event] = []
     k, n = 0, sign.size
@@ -189,6 +185,6 @@ def _runs(sign: NDArray[np.int64], c: NDArray[np.float64]) -> list[Event]:
         s0, j = int(sign[k]), k + 1
         while j < n and (sign[j] == s0 or (j + 1 < n and sign[j] == 0 and sign[j + 1] == s0)):
             j += 1
-        out.append(Event(k, j, s0, float(np.mean(np.abs(c[k:j])))))
+        out.append(Event(k, j, s0))
         k = j
     return out

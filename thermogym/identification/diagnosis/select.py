@@ -392,7 +392,7 @@ def fit_hypothesis(
             if out.message == STOPPED and cand is not None:
                 data.skip(f"the fit of {cand.label} stopped at the time limit")
             h.theta = out.theta.copy()
-            for p in [*local, *_recorded_names(model)]:
+            for p in [*local, *recorded_names(model)]:
                 # the model reported runs with per-recording parts neutral
                 h.theta[model.param_index(p)] = model.nominal[model.param_index(p)]
             h.sims_train = [pb.simulate(out.z[None], i)[0] for i in range(len(data.train))]
@@ -434,14 +434,14 @@ def _fit_crossfit(h, fit_with, base, free, bounds, starts, data, nfev, rec_vals)
     out = fit_model(pb, starts=starts, n_refine=1, max_nfev=nfev, deadline=data.deadline)
     h.outcome = out
     h.theta = out.theta.copy()
-    for p in [*h.local, *_recorded_names(h.model)]:
+    for p in [*h.local, *recorded_names(h.model)]:
         h.theta[h.model.param_index(p)] = h.model.nominal[h.model.param_index(p)]
     h.sims_train = [pb.simulate(out.z[None], i)[0] for i in range(len(data.train))]
     h.local_train = [{**(out.local[i] if out.local else {}), **rec_vals[i]} for i in range(n_tr)]
     h.sims_val, h.local_val = sims_val, local_val
 
 
-def _recorded_names(model: Model) -> list[str]:
+def recorded_names(model: Model) -> list[str]:
     """Parameters of ``model`` read from each recording's data (never fitted)."""
     return [p.name for p in model.parameters if p.group == RECORDED]
 

@@ -19,9 +19,15 @@ from thermogym.identification.diagnosis.effects import CATALOGUE
 from thermogym.identification.diagnosis.hypothesis import Hypothesis
 from thermogym.identification.diagnosis.report import DiagnosisReport
 from thermogym.identification.diagnosis.run_state import _need, _Run
-from thermogym.identification.diagnosis.select import Selection, _added, nrmse_table, shares
+from thermogym.identification.diagnosis.select import (
+    Selection,
+    _added,
+    nrmse_table,
+    recorded_names,
+    shares,
+)
 from thermogym.identification.diagnosis.stages_nominal import _tests
-from thermogym.models.augmented import RECORDED, AugmentedModel
+from thermogym.models.augmented import AugmentedModel
 from thermogym.models.base import Model
 from thermogym.vocabulary import EFFECT_NAMES
 
@@ -320,11 +326,7 @@ def _finalise(
             "nominal_model": spec.name,
             "local_parameters_neutral": list(final.local),
             # event times read from each recording: neutral (no events) in the model saved
-            "recorded_parameters_neutral": [
-                p.name for p in final.model.parameters if p.group == RECORDED
-            ]
-            if final.model is not None
-            else [],
+            "recorded_parameters_neutral": recorded_names(final.model) if final.model else [],
         },
         metrics={
             "train": {"nrmse": final.fit_after},
