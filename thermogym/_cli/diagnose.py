@@ -70,7 +70,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--dt",
         type=positive("s", "a sample period"),
-        help="average the recordings onto this period [s] first",
+        help="average the recordings onto this period [s] first (default: their own, or for "
+        "more than 20,000 samples a grid of 1/20 of the model's fastest half-response; give "
+        "the recordings' period to keep it)",
     )
     p.add_argument(
         "--alpha",

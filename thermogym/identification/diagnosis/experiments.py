@@ -13,11 +13,17 @@ in the order compared. :func:`prepare_experiments` builds them:
   exogenous signals averaged over each interval, as a zero-order hold sees
   them; the outputs point-sampled).
 
+:func:`auto_period` picks that coarser grid for long recordings: a day at
+1 Hz holds 86,400 samples per output, far more than a thermal model whose
+fastest response takes minutes can use, and every simulation of the search
+costs in proportion to them.
+
 What was done is kept in :attr:`Experiment.notes` for the report.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -29,7 +35,17 @@ from thermogym.identification.prepare import resample
 from thermogym.models.base import Model
 from thermogym.recording import Recording
 
-__all__ = ["Experiment", "decimate", "prepare_experiments"]
+__all__ = ["AUTO_SAMPLES", "Experiment", "auto_period", "decimate", "prepare_experiments"]
+
+#: Recordings holding more samples than this in all (training and held-out) are averaged
+#: onto a coarser grid when the caller gives no period (:func:`auto_period`).
+AUTO_SAMPLES = 20_000
+#: The grid :func:`auto_period` picks is at most this share of the model's fastest
+#: half-response time (about a thirtieth of a first-order time constant: averaging then
+#: changes a first-order response by well under a per cent of its step).
+AUTO_SHARE = 1.0 / 20.0
+#: ... and keeps at least this many samples in every recording.
+AUTO_MIN_SAMPLES = 500
 
 
 @dataclass
@@ -72,6 +88,98 @@ class Experiment:
     def n(self) -> int:
         """Number of samples."""
         return int(self.u.shape[0])
+
+
+def half_response_time(
+    model: Model, theta: NDArray[np.float64], e: Experiment, outputs: Sequence[str]
+) -> float:
+    """Fastest half-response [s] of the model's ``outputs`` to a step of any exogenous signal.
+
+    Each exogenous signal that varies in ``e`` is raised by 1 % of its span a
+    quarter into the recording (one batched simulation at ``theta``); the time
+    an output takes to make half the change it shows over the recording's last
+    sixth is its half-response to that signal. Infinite when the model cannot
+    be simulated so or no output responds.
+
+    Examples
+    --------
+    >>> from thermogym.models.registry import get_model
+    >>> m = get_model("foptd")
+    >>> t = np.arange(2000.0)
+    >>> rec = Recording(t, {"u": (t > 100).astype(float), "y": np.zeros(2000)})
+    >>> e = prepare_experiments(m, [rec], ["y"])[0]
+    >>> th = m.nominal.copy()
+    >>> th[m.param_index("T_y")] = 300.0  # time constant [s], no dead time
+    >>> t_half = half_response_time(m, th, e, ["y"])  # ln 2 of the time constant
+    >>> bool(abs(t_half - 300.0 * np.log(2.0)) <= 10.0)
+    True
+    """
+    span = np.ptp(e.u, axis=0)
+    ports = [j for j in range(e.u.shape[1]) if np.isfinite(span[j]) and span[j] > 0]
+    cols = [model.output_names.index(o) for o in outputs if o in model.output_names]
+    if not ports or not cols:
+        return math.inf
+    n0 = e.n // 4
+    uu = np.repeat(e.u[None], len(ports) + 1, axis=0)
+    for b, j in enumerate(ports, start=1):
+        uu[b, n0:, j] += 0.01 * span[j]
+    th = np.repeat(np.asarray(theta, dtype=float)[None], len(ports) + 1, axis=0)
+    try:
+        x0 = model.initial_state(th, uu[:, 0])
+        out = model.simulate(uu, e.dt, th, x0, strict=False).outputs
+    except Exception:  # a model that cannot be simulated here: no period is chosen from it
+        return math.inf
+    best = math.inf
+    for b in range(1, len(ports) + 1):
+        d = out[b, n0:, :] - out[0, n0:, :]
+        for k in cols:
+            x = d[:, k]
+            if not np.isfinite(x).all():
+                continue
+            final = float(np.mean(x[-max(x.size // 6, 1) :]))
+            if final == 0.0:
+                continue
+            hit = np.nonzero(np.abs(x) >= 0.5 * abs(final))[0]
+            if hit.size:
+                best = min(best, float(hit[0]) * e.dt)
+    return best
+
+
+def auto_period(
+    model: Model,
+    theta: NDArray[np.float64],
+    experiments: Sequence[Experiment],
+    outputs: Sequence[str],
+) -> tuple[float, float] | None:
+    """A coarser comparison period for long recordings, or None to keep theirs.
+
+    When the experiments hold more than :data:`AUTO_SAMPLES` samples in all,
+    the longest whole multiple of their period that is at most
+    :data:`AUTO_SHARE` of the model's fastest half-response
+    (:func:`half_response_time` on the first experiment, at ``theta``) and
+    leaves every experiment :data:`AUTO_MIN_SAMPLES` samples. None when the
+    recordings are short, their periods differ, or the multiple is below 2.
+
+    Returns
+    -------
+    (dt, t_half) : tuple of float
+        The period [s] and the half-response time [s] it was chosen from.
+    """
+    if not experiments or sum(e.n for e in experiments) <= AUTO_SAMPLES:
+        return None
+    dt0 = experiments[0].dt
+    if any(abs(e.dt - dt0) > 1e-9 * dt0 for e in experiments):
+        return None
+    t_half = half_response_time(model, theta, experiments[0], outputs)
+    if not math.isfinite(t_half):
+        return None
+    k = min(
+        math.floor(AUTO_SHARE * t_half / dt0 + 1e-9),
+        min(e.n for e in experiments) // AUTO_MIN_SAMPLES,
+    )
+    if k < 2:
+        return None
+    return k * dt0, t_half
 
 
 def decimate(rec: Recording, dt: float, exogenous: Sequence[str]) -> Recording:

@@ -131,7 +131,13 @@ def diagnose(
     candidates : sequence of str, optional
         Effects to consider (default: every effect of the vocabulary).
     dt : float, optional
-        Average the recordings onto this period [s] first.
+        Average the recordings onto this period [s] first. By default their
+        own period, unless they hold more than 20,000 samples in all: then the
+        longest multiple of it within a twentieth of the nominal model's
+        fastest half-response (a day at 1 Hz of a block whose half-response
+        takes 7 minutes is searched on a 21 s grid; the report says so).
+        Effects faster than that grid are then out of sight: give the
+        recordings' own period to keep it.
     alpha : float
         Significance level of the residual tests (Bonferroni over outputs and tests).
     max_lag : int

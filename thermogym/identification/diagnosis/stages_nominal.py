@@ -19,7 +19,12 @@ from numpy.typing import NDArray
 from thermogym.errors import ConfigError, RecordingError, UnknownNameError
 from thermogym.fitresult import FitResult, load_fit
 from thermogym.identification.diagnosis.effects import CATALOGUE
-from thermogym.identification.diagnosis.experiments import Experiment, prepare_experiments
+from thermogym.identification.diagnosis.experiments import (
+    AUTO_SHARE,
+    Experiment,
+    auto_period,
+    prepare_experiments,
+)
 from thermogym.identification.diagnosis.fit import FitProblem, output_weights
 from thermogym.identification.diagnosis.hypothesis import Hypothesis, NominalSpec
 from thermogym.identification.diagnosis.identify import intervals
@@ -192,6 +197,24 @@ def _stage_nominal(st: _Run) -> None:
     else:
         st.method = "design values, re-calibrated"
     st.given_fixed = fixed
+    if o["dt"] is None and (step := auto_period(model, given, [*st.tr, *st.va], outs)):
+        # long recordings: the search runs on a grid the model's dynamics still resolve
+        dt_new, t_half = step
+        n_all = sum(e.n for e in [*st.tr, *st.va])
+        st.tr = prepare_experiments(model, st.tr_list, outs, dt=dt_new, what="training")
+        st.va = prepare_experiments(model, st.va_list, outs, dt=dt_new, what="validation")
+        o["dt"] = dt_new
+        st.weights = weights = output_weights(st.tr)
+        if st.generic:
+            given = generic_start(model, st.tr)
+        msg = (
+            f"the recordings hold {n_all} samples: averaged onto a {dt_new:g} s grid for the "
+            f"search ({100 * AUTO_SHARE:g} % of the model's fastest half-response, "
+            f"{t_half:.4g} s; effects faster than the grid cannot be seen: give dt equal "
+            "to the recordings' period to keep it, at a higher cost)"
+        )
+        st.say(msg)
+        st.notes.append(msg)
     cands = [p for p in model.param_names if p not in fixed]
     if st.generic:
         lo, hi = generic_bounds(model, cands, given, st.tr)
