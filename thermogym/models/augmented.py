@@ -121,7 +121,7 @@ MAX_RELAXATION = 60
 #: Relaxation stops when no output changes by more than this share of its scale.
 _RELAX_TOL = 1e-8
 #: Relaxation passes after which a base model that can step is stepped instead.
-_PASSES_BEFORE_STEPPING = 12
+_PASSES_BEFORE_STEPPING = 30
 #: Iterates Anderson acceleration of the relaxation mixes.
 _AA_MEMORY = 5
 _SIDES = ("input", "loop", "plant", "sensor")
