@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import platform
 import sys
 import time
 from pathlib import Path
@@ -69,6 +71,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, help="write the results here")
     ap.add_argument("--no-peer", action="store_true", help="skip the full-rate peer run")
     args = ap.parse_args(argv)
+    load0 = os.getloadavg()[0]
+    print(f"machine: {platform.node()}, {os.cpu_count()} cores, load average {load0:.2f}")
     rows = []
     for label, eff, truth in CASES:
         r = run_one(eff, None)
@@ -99,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         tmp = args.json.with_suffix(".tmp")
-        tmp.write_text(json.dumps({"cases": rows, "peer": peer}, indent=1))
+        tmp.write_text(json.dumps({"cases": rows, "peer": peer, "load_average_start": load0}, indent=1))
         tmp.replace(args.json)
     return 0
 
