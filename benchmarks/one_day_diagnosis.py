@@ -103,7 +103,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         tmp = args.json.with_suffix(".tmp")
-        tmp.write_text(json.dumps({"cases": rows, "peer": peer, "load_average_start": load0}, indent=1))
+        tmp.write_text(
+            json.dumps({"cases": rows, "peer": peer, "load_average_start": load0}, indent=1)
+        )
         tmp.replace(args.json)
     return 0
 
