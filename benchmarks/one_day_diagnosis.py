@@ -10,7 +10,7 @@ recordings onto a grid of a twentieth of the model's fastest half-response
 at the recordings' own 1 s (``dt=1``) on the first case::
 
     python benchmarks/one_day_diagnosis.py --json out/one_day.json
-    python benchmarks/one_day_diagnosis.py --no-peer  # skip the full-rate run (7 min)
+    python benchmarks/one_day_diagnosis.py --no-peer  # skip the full-rate run (5 min)
 """
 
 from __future__ import annotations
