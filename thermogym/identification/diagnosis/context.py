@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from thermogym.identification.diagnosis.experiments import half_time, step_responses
 from thermogym.identification.diagnosis.hypothesis import NominalSpec
 from thermogym.identification.residuals import cross_correlation
 from thermogym.models.base import Model
@@ -240,34 +241,21 @@ class Context:
         u = self.u[i]
         j = list(self.exogenous).index(port)
         span = float(np.ptp(u[:, j])) or max(abs(float(np.mean(u[:, j]))), 1.0)
-        n0 = u.shape[0] // 4
-        uu = np.stack([u, u])
-        uu[1, n0:, j] += 0.01 * span
-        th = np.repeat(self.theta[None], 2, axis=0)
-        try:
-            x0 = self.model.initial_state(th, uu[:, 0])
-            sim = self.model.simulate(uu, self.dt[i], th, x0, strict=False)
-            d = sim.outputs[1, n0:] - sim.outputs[0, n0:]
-        except Exception:
-            return None
-        return d if np.isfinite(d).all() else None
+        d = step_responses(self.model, self.theta, u, self.dt[i], [(j, 0.01 * span)])
+        return d[0] if d is not None and np.isfinite(d).all() else None
 
     def response_time(self, port: str, output: str) -> float:
         """Seconds the nominal model's output takes to make half its response to a step of ``port``.
 
         Infinite when the output has not made half the change it shows over the
-        first training recording's last eighth, or shows none
-        (:meth:`_step_response`).
+        first training recording's last sixth, or shows none
+        (:meth:`_step_response`, :func:`.experiments.half_time`).
         """
         d = self._step_response(port)
         if d is None:
             return math.inf
         x = d[:, self.model.output_names.index(output)]
-        final = float(np.mean(x[-max(x.size // 6, 1) :]))
-        if abs(final) == 0:
-            return math.inf
-        hit = np.nonzero(np.abs(x) >= 0.5 * abs(final))[0]
-        return float(hit[0]) * self.dt[self.is_train.index(True)] if hit.size else math.inf
+        return half_time(x, self.dt[self.is_train.index(True)])
 
     def locality(self, port: str, output: str) -> float:
         """How much more ``output`` than any other output a step of ``port`` moves at first.

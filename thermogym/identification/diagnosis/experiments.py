@@ -35,7 +35,16 @@ from thermogym.identification.prepare import resample
 from thermogym.models.base import Model
 from thermogym.recording import Recording
 
-__all__ = ["AUTO_SAMPLES", "Experiment", "auto_period", "decimate", "prepare_experiments"]
+__all__ = [
+    "AUTO_SAMPLES",
+    "Experiment",
+    "auto_period",
+    "decimate",
+    "half_response_time",
+    "half_time",
+    "prepare_experiments",
+    "step_responses",
+]
 
 #: Recordings holding more samples than this in all (training and held-out) are averaged
 #: onto a coarser grid when the caller gives no period (:func:`auto_period`).
@@ -90,15 +99,55 @@ class Experiment:
         return int(self.u.shape[0])
 
 
+def step_responses(
+    model: Model,
+    theta: NDArray[np.float64],
+    u: NDArray[np.float64],
+    dt: float,
+    steps: Sequence[tuple[int, float]],
+) -> NDArray[np.float64] | None:
+    """Output changes after steps of exogenous signals, shape (len(steps), T − T/4, n_out).
+
+    Each ``(column, size)`` raises that column of ``u`` (T, n_u) by ``size`` a
+    quarter into the record; one batched simulation at ``theta`` with the
+    unchanged record as the reference. None when the model cannot be simulated
+    so; rows of sets that fail hold NaN.
+    """
+    n0 = u.shape[0] // 4
+    uu = np.repeat(u[None], len(steps) + 1, axis=0)
+    for b, (j, size) in enumerate(steps, start=1):
+        uu[b, n0:, j] += size
+    th = np.repeat(np.asarray(theta, dtype=float)[None], len(steps) + 1, axis=0)
+    try:
+        x0 = model.initial_state(th, uu[:, 0])
+        out = model.simulate(uu, dt, th, x0, strict=False).outputs
+    except Exception:  # a model that cannot be simulated here has no step response
+        return None
+    return out[1:, n0:, :] - out[:1, n0:, :]
+
+
+def half_time(x: NDArray[np.float64], dt: float) -> float:
+    """Seconds a step response ``x`` takes to make half the change of its last sixth.
+
+    Infinite when it never does, shows no change, or holds NaN.
+    """
+    if not np.isfinite(x).all():
+        return math.inf
+    final = float(np.mean(x[-max(x.size // 6, 1) :]))
+    if final == 0.0:
+        return math.inf
+    hit = np.nonzero(np.abs(x) >= 0.5 * abs(final))[0]
+    return float(hit[0]) * dt if hit.size else math.inf
+
+
 def half_response_time(
     model: Model, theta: NDArray[np.float64], e: Experiment, outputs: Sequence[str]
 ) -> float:
     """Fastest half-response [s] of the model's ``outputs`` to a step of any exogenous signal.
 
     Each exogenous signal that varies in ``e`` is raised by 1 % of its span a
-    quarter into the recording (one batched simulation at ``theta``); the time
-    an output takes to make half the change it shows over the recording's last
-    sixth is its half-response to that signal. Infinite when the model cannot
+    quarter into the recording (:func:`step_responses`); the fastest
+    :func:`half_time` over signals and outputs. Infinite when the model cannot
     be simulated so or no output responds.
 
     Examples
@@ -115,34 +164,12 @@ def half_response_time(
     True
     """
     span = np.ptp(e.u, axis=0)
-    ports = [j for j in range(e.u.shape[1]) if np.isfinite(span[j]) and span[j] > 0]
+    steps = [(j, 0.01 * float(span[j])) for j in range(e.u.shape[1]) if span[j] > 0]
     cols = [model.output_names.index(o) for o in outputs if o in model.output_names]
-    if not ports or not cols:
+    d = step_responses(model, theta, e.u, e.dt, steps) if steps and cols else None
+    if d is None:
         return math.inf
-    n0 = e.n // 4
-    uu = np.repeat(e.u[None], len(ports) + 1, axis=0)
-    for b, j in enumerate(ports, start=1):
-        uu[b, n0:, j] += 0.01 * span[j]
-    th = np.repeat(np.asarray(theta, dtype=float)[None], len(ports) + 1, axis=0)
-    try:
-        x0 = model.initial_state(th, uu[:, 0])
-        out = model.simulate(uu, e.dt, th, x0, strict=False).outputs
-    except Exception:  # a model that cannot be simulated here: no period is chosen from it
-        return math.inf
-    best = math.inf
-    for b in range(1, len(ports) + 1):
-        d = out[b, n0:, :] - out[0, n0:, :]
-        for k in cols:
-            x = d[:, k]
-            if not np.isfinite(x).all():
-                continue
-            final = float(np.mean(x[-max(x.size // 6, 1) :]))
-            if final == 0.0:
-                continue
-            hit = np.nonzero(np.abs(x) >= 0.5 * abs(final))[0]
-            if hit.size:
-                best = min(best, float(hit[0]) * e.dt)
-    return best
+    return min(half_time(d[b, :, k], e.dt) for b in range(len(steps)) for k in cols)
 
 
 def auto_period(
