@@ -253,3 +253,37 @@ def test_a_small_second_effect_beside_a_dominant_first_is_material():
     course = hyp(0.999, 2)
     course.k_local = 6
     assert not material_share(course, dead_zone)
+
+
+def test_a_screening_takes_the_parents_columns_computed_once_per_round(monkeypatch):
+    # the parent's Jacobian columns at its optimum, computed once for a round, are the
+    # columns every candidate's screening computed itself at its neutral start: a candidate
+    # screened from there gives the same fit either way
+    import thermogym.identification.diagnosis.run as run
+    from thermogym.identification.diagnosis import diagnose
+    from thermogym.identification.diagnosis.select import fit_hypothesis, parent_columns
+
+    seen = {}
+
+    def stop_at_selection(st):
+        seen["st"] = st
+        raise KeyboardInterrupt
+
+    monkeypatch.setitem(run._STAGE_FUNCS, "selection", stop_at_selection)
+    tr, va = node_recordings(5, effects={"radiation": 0.2}, hours=1.5, dt=10.0)
+    with pytest.raises(KeyboardInterrupt):
+        diagnose(NodeModel(), tr, va)
+    st = seen["st"]
+    cols = parent_columns(st.nominal, st.data)
+    n_res = sum(e.n * len(e.outputs) for e in st.data.train)
+    assert cols is not None and cols.shape == (n_res, len(st.nominal.free))
+    plain = [c for c in st.candidates if not c.starts and c.effect != "unmeasured_disturbance"]
+    assert len(plain) >= 3
+    for c in plain[:4]:
+        own = fit_hypothesis(st.spec, st.nominal, c, st.data, st.nominal, screen=True)
+        shared = fit_hypothesis(
+            st.spec, st.nominal, c, st.data, st.nominal, screen=True, parent_columns=cols
+        )
+        assert not own.error and not shared.error, c.label
+        np.testing.assert_allclose(shared.theta, own.theta, rtol=1e-4, atol=1e-9, err_msg=c.label)
+        assert shared.delta_ic == pytest.approx(own.delta_ic, rel=1e-4, abs=1e-3), c.label

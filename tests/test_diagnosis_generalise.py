@@ -181,8 +181,8 @@ def test_a_search_the_time_limit_cut_short_says_so_and_what_it_left_out():
     assert "## Incomplete search" in cut.to_markdown()
 
 
-@pytest.mark.parametrize("share", [None, 1.0])
-def test_a_search_the_time_limit_cuts_short_still_refits_what_it_screened(monkeypatch, share):
+@pytest.mark.parametrize("reserve", [2.0, 0.0])
+def test_a_search_the_time_limit_cuts_short_still_refits_what_it_screened(monkeypatch, reserve):
     # a clock that moves only when a candidate is screened (1 s each): the limit of 4 s
     # cuts the screening of 7 candidates whatever the machine's speed
     import time
@@ -199,14 +199,14 @@ def test_a_search_the_time_limit_cuts_short_still_refits_what_it_screened(monkey
 
     monkeypatch.setattr(time, "perf_counter", lambda: clock[0])
     monkeypatch.setattr(select, "fit_hypothesis", fit_and_tick)
-    if share is not None:  # the screening allowed the whole time: the old behaviour
-        monkeypatch.setattr(select, "SCREEN_SHARE", share)
+    # the time kept for refits, in screening fits (0: none, the old behaviour)
+    monkeypatch.setattr(select, "REFIT_RESERVE", reserve)
     which = ["sensor_lag", "transport_delay", "sensor_offset", "nonlinear_heat_transfer"]
     rep = _run({"delay": 60.0}, seed=4, max_effects=1, candidates=which, time_limit=4.0)
     assert not rep.complete and "candidates not screened" in rep.incomplete[0]
-    if share is None:
-        # half the time screens the output dead time and the lag; the rest refits them, and
-        # the dead time is named on what was screened
+    if reserve:
+        # three of seven screened (the lag, the output dead time, ...); the time left is
+        # kept for their refits, and the dead time is named on what was screened
         assert rep.named_effects[0] == "transport_delay", rep.verdict
         assert any(not h["screened"] for h in rep.to_dict()["hypotheses"])
     else:

@@ -77,6 +77,7 @@ __all__ = [
     "output_weights",
     "simulate_all",
     "sobol_starts",
+    "unit_jacobian",
 ]
 
 #: Parameter group of per-recording parameters (fitted separately in every recording).
@@ -485,6 +486,7 @@ def fit_model(
     seed: int = 0,
     covariance: bool = True,
     frozen: Sequence[str] = (),
+    frozen_columns: NDArray[np.float64] | None = None,
 ) -> FitOutcome:
     """Bounded least squares of the weighted simulation error (see the module docstring).
 
@@ -515,6 +517,9 @@ def fit_model(
         the first point, and reused (a quasi-Newton shortcut for a screening
         fit whose other parameters start at their optimum: each iteration
         then simulates only the remaining columns).
+    frozen_columns : ndarray, shape (n_residuals, len(frozen)), optional
+        Those columns already computed (in the unit coordinates of the
+        bounds, :func:`unit_jacobian`): the first point computes none of them.
 
     Returns
     -------
@@ -551,6 +556,13 @@ def fit_model(
     skip = np.array([p in frozen for p in names_g] + [False] * (k - g), dtype=bool)
     kept: dict[str, NDArray[np.float64]] = {}
     for c0 in cands:
+        n_res = sum(e.n * len(e.outputs) for e in problem.experiments)
+        if (
+            frozen_columns is not None
+            and "J" not in kept
+            and np.shape(frozen_columns) == (n_res, int(skip.sum()))
+        ):
+            kept["frozen"] = np.asarray(frozen_columns, dtype=float)
         fun, jac = _objective(problem, lo, span, best, deadline, skip if skip.any() else None, kept)
         try:
             res = box_least_squares(
@@ -582,6 +594,23 @@ def fit_model(
 
 #: FitOutcome message of a refinement the time limit stopped.
 STOPPED = "stopped at the time limit"
+#: Forward-difference step of the Jacobian, in the unit coordinates of the bounds.
+_H_UNIT = 1e-6
+
+
+def unit_jacobian(problem: FitProblem, z: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """The Jacobian :func:`fit_model` computes, at ``z`` (default: the start), in unit coordinates.
+
+    Column ``j`` is ``∂r/∂s_j`` with ``s = (z − lower) / (upper − lower)``: the
+    columns a screening fit takes as given (``frozen_columns``).
+    """
+    lo, hi = problem.z_lower, problem.z_upper
+    span = np.where(hi > lo, hi - lo, 1.0)
+    z = problem.start() if z is None else np.asarray(z, dtype=float)
+    s = (z - lo) / span
+    steps = np.where(s + _H_UNIT <= 1.0, _H_UNIT, -_H_UNIT)
+    r0 = problem.residuals(z[None])[0]
+    return problem.jacobian(z, r0, steps * span) * span[None, :]
 
 
 class _Stop(Exception):
@@ -603,7 +632,7 @@ def _objective(
     kept in ``kept`` (shared between refinements).
     """
     cache: dict[bytes, NDArray[np.float64]] = {}
-    h_unit = 1e-6
+    h_unit = _H_UNIT
 
     def fun(s: NDArray[np.float64]) -> NDArray[np.float64]:
         key = s.tobytes()
@@ -626,6 +655,11 @@ def _objective(
         z = lo + np.clip(s, 0.0, 1.0) * span
         if skip is None or kept is None:
             return problem.jacobian(z, r0, steps * span, deadline=deadline) * span[None, :]
+        if "J" not in kept and "frozen" in kept:
+            J = problem.jacobian(z, r0, steps * span, skip=skip, deadline=deadline) * span[None, :]
+            J[:, skip] = kept["frozen"]
+            kept["J"] = J
+            return J.copy()
         if "J" not in kept:
             kept["J"] = problem.jacobian(z, r0, steps * span, deadline=deadline) * span[None, :]
             return kept["J"].copy()

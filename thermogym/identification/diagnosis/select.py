@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -51,6 +51,7 @@ from thermogym.identification.diagnosis.fit import (
     STOPPED,
     FitProblem,
     fit_model,
+    unit_jacobian,
 )
 from thermogym.identification.diagnosis.hypothesis import (
     Candidate,
@@ -103,13 +104,12 @@ _SCREEN_NFEV = 8
 #: Hypotheses refitted jointly after screening: in the first round, in later rounds.
 N_FULL_FIRST = 8
 N_FULL_NEXT = 5
-#: Under a time limit, the share of a round's remaining time its screening may take: the
-#: rest refits the best screened candidates jointly and tests them, so that a search the
-#: limit cuts short still concludes on what it screened (a screening that ran to the
-#: deadline left nothing refitted, and named nothing however good a screened candidate was).
-#: A joint refit costs about three screening fits (its evaluations against
-#: :data:`_SCREEN_NFEV`), so half the time refits about a third as many as were screened.
-SCREEN_SHARE = 0.5
+#: Under a time limit, the time a round's screening leaves for refitting the best screened
+#: candidates jointly and testing them, in screening fits (their mean time so far): a
+#: screening that ran to the deadline left nothing refitted, and named nothing however good
+#: a screened candidate was. A joint refit took 3-4 screening fits on the AXT211 (all
+#: parameters free, 25 evaluations against :data:`_SCREEN_NFEV`): this is about two refits.
+REFIT_RESERVE = 8.0
 
 
 @dataclass
@@ -302,6 +302,7 @@ def fit_hypothesis(
     screen: bool = False,
     max_nfev: int | None = None,
     start: dict[str, float] | None = None,
+    parent_columns: NDArray[np.float64] | None = None,
 ) -> Hypothesis:
     """Fit ``parent`` + ``cand`` and score it against ``parent`` (module docstring).
 
@@ -321,6 +322,10 @@ def fit_hypothesis(
     max_nfev : int, optional
     start : dict, optional
         Start values of shared parameters (a screened fit refined).
+    parent_columns : ndarray, optional
+        A screening fit's Jacobian columns of the parent's shared parameters at
+        the parent's optimum (:func:`parent_columns`): the same for every
+        candidate of a round, so computed once for the round.
 
     Returns
     -------
@@ -394,6 +399,7 @@ def fit_hypothesis(
                 # screening: the parent's own parameters start at their optimum, their
                 # Jacobian columns are computed once (the joint refit recomputes them all)
                 frozen=parent_g if screen else (),
+                frozen_columns=parent_columns if screen else None,
             )
             h.outcome = out
             if out.message == STOPPED and cand is not None:
@@ -418,6 +424,42 @@ def fit_hypothesis(
     _score(h, parent, nominal, data, outs)
     h.seconds = time.perf_counter() - t0
     return h
+
+
+def parent_columns(parent: Hypothesis, data: Data) -> NDArray[np.float64] | None:
+    """Jacobian columns of ``parent``'s shared parameters at its optimum (training data).
+
+    A screening fit starts every candidate at its neutral values, where the
+    augmented model is the parent, with the parent's parameters at their
+    optimum; it takes their Jacobian columns as given (a quasi-Newton
+    shortcut: only the candidate's own columns are simulated again). They are
+    the same for every candidate of a round: computed here once instead of
+    once per candidate (P + 1 simulations of every recording saved per
+    candidate). None when they cannot be computed (each screening then
+    computes its own).
+    """
+    if parent.model is None or parent.theta is None or data.scheme == "crossfit":
+        return None
+    model = parent.model
+    groups = {p.name: p.group for p in model.parameters}
+    free = [p for p in parent.free if groups.get(p) != LOCAL_GROUP]
+    if not free:
+        return None
+    n_tr = len(data.train)
+    rec = recorded_values(parent.candidates, n_tr + len(data.val))
+    try:
+        pb = _problem(
+            fast_or_none(model) or model,
+            free,
+            parent.theta,
+            {p: parent.bounds[p] for p in free},
+            data.train,
+            data,
+            rec[0][:n_tr] if rec else None,
+        )
+        return unit_jacobian(pb)
+    except Exception:  # the screening computes the columns itself, as it always could
+        return None
 
 
 def _fit_crossfit(h, fit_with, base, free, bounds, starts, data, nfev, rec_vals) -> None:
@@ -663,12 +705,11 @@ def _round(
     re-estimated courses), whether each passes, and the screened rest.
     """
     screened = []
-    sdata = data
-    if data.deadline is not None:
-        now = time.perf_counter()
-        sdata = replace(data, deadline=now + SCREEN_SHARE * max(0.0, data.deadline - now))
+    cols = parent_columns(current, data) if pool else None
+    spent: list[float] = []  # seconds of each screening fit
     for i, c in enumerate(pool):
-        if sdata.expired:
+        left = math.inf if data.deadline is None else data.deadline - time.perf_counter()
+        if left <= 0.0 or (spent and left < REFIT_RESERVE * float(np.mean(spent))):
             data.say(f"time limit: {len(pool) - i} of {len(pool)} candidates not screened")
             data.skip(
                 f"{len(pool) - i} of {len(pool)} candidates not screened"
@@ -681,7 +722,11 @@ def _round(
                 + (", ...)" if len(pool) - i > 3 else ")")
             )
             break
-        screened.append(fit_hypothesis(spec, current, c, sdata, nominal, screen=True))
+        t0 = time.perf_counter()
+        screened.append(
+            fit_hypothesis(spec, current, c, data, nominal, screen=True, parent_columns=cols)
+        )
+        spent.append(time.perf_counter() - t0)
     top = refit_set([h for h in screened if not h.error], n_full)
     fitted = []
     for j, hs in enumerate(top):
