@@ -353,6 +353,29 @@ def test_outputs_are_checked_before_any_work(axt_csv, tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ax.csv"]
 
 
+def test_an_output_over_an_inputs_sidecar_is_refused(strut_csv, tmp_path, capsys):
+    """A JSON output named like an input CSV's ``.meta.json`` would replace its metadata."""
+    data = tmp_path / "a.csv"
+    data.write_bytes(strut_csv.read_bytes())
+    side = tmp_path / "a.csv.meta.json"
+    side.write_bytes((strut_csv.parent / (strut_csv.name + ".meta.json")).read_bytes())
+    bare = tmp_path / "b.csv"  # no sidecar yet: one written there would be read with it
+    bare.write_bytes(strut_csv.read_bytes())
+    before = _digest(tmp_path)
+    foptd = ["identify", "foptd", "--inputs", "feed_rate", "--outputs", "T_drive"]
+    diag = ["diagnose", "--model", "strut", "--train", str(data), "--validate", str(bare)]
+    cases = [
+        ([*foptd, str(data), "--out", str(side)], ["--out", "sidecar of", "a.csv"]),
+        ([*foptd, str(bare), "--out", str(tmp_path / "b.csv.meta.json")], ["sidecar of"]),
+        ([*diag, "--out", str(tmp_path / "b.csv.meta.json")], ["--validate", "b.csv"]),
+        ([*diag, "--out", str(tmp_path / "r.json"), "--augmented-fit", str(side)], ["--train"]),
+    ]
+    for argv, needles in cases:
+        assert main(argv) == 2, argv
+        _one_error_line(capsys, "also an input", *needles)
+        assert _digest(tmp_path) == before, argv
+
+
 def test_a_failed_run_replaces_nothing(axt_csv, tmp_path, capsys):
     out = tmp_path / "sim.csv"
     out.write_text("time,x\n0,1\n")
