@@ -366,6 +366,26 @@ def test_given_nominal_parameters_are_used_as_they_are(tmp_path):
         diagnose("strut", tr, va, params=FitResult.from_model(AXT211()))
 
 
+def test_a_given_generic_fit_takes_its_own_input_columns_in_its_own_order(tmp_path):
+    # a FitResult of foptd with two exogenous columns; recordings without roles (a plain CSV)
+    from thermogym.identification.foptd import fit_foptd
+
+    tr, va = _strut(seed=4)
+    tr, va = [r.replace(roles={}) for r in tr], [r.replace(roles={}) for r in va[:1]]
+    path = tmp_path / "foptd.json"
+    fit_foptd(tr, ["feed_rate", "T_air"], ["T_drive", "T_nut"], disturbances=[]).fit.save(path)
+    kw = dict(params=path, candidates=["sensor_offset"], max_effects=1, time_limit=5.0)
+    # columns other than the FitResult's: named, not an IndexError deep in the run
+    with pytest.raises(ConfigError, match=r"\['feed_rate'\] \(--inputs\).*'T_air'"):
+        diagnose("foptd", tr, va, inputs=["feed_rate"], **kw)
+    with pytest.raises(ConfigError, match=r"\['T_bearing'\] \(--outputs\).*'T_nut'"):
+        diagnose("foptd", tr, va, outputs=["T_bearing"], **kw)
+    # the same columns in another order: the fitted gains stay with their inputs (were swapped)
+    own = diagnose("foptd", tr, va, **kw).nominal_fit.parameters
+    swapped = diagnose("foptd", tr, va, inputs=["T_air", "feed_rate"], **kw)
+    assert swapped.nominal_fit.parameters == pytest.approx(own)
+
+
 @pytest.mark.xfail(
     strict=True,
     reason="known miss after the issue 15 rewrite: the sparse-regression fallback proposes no "

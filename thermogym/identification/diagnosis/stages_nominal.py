@@ -64,12 +64,8 @@ def _check_inputs(st: _Run) -> None:
     o = st.opts
     model = o["model"]
     generic = isinstance(model, str) and model.partition(":")[0] in ("foptd", "ss")
-    if generic and o["params"] is not None and not (o["inputs"] and o["outputs"]):
-        # the columns of a given generic FitResult are its own
-        cfg = load_fit(o["params"]).model_config
-        cfg = cfg.get("base_config", cfg) if "base" in cfg else cfg
-        o["inputs"] = o["inputs"] or [*cfg.get("inputs", []), *cfg.get("disturbances", [])]
-        o["outputs"] = o["outputs"] or list(cfg.get("outputs", []))
+    if generic and o["params"] is not None:
+        _fit_columns(o, model.partition(":")[0])
     nominal, spec = resolve_model(
         model,
         st.tr_list[0],
@@ -127,6 +123,53 @@ def _check_inputs(st: _Run) -> None:
                 )
         nominal = spec.build()
     st.model, st.spec, st.outs = nominal, spec, outs
+
+
+def _fit_columns(o: dict[str, Any], name: str) -> None:
+    """Take the columns of a given generic FitResult (``params``) into ``o``.
+
+    Its fitted model reads its exogenous columns in its own order: ``inputs``, when
+    given, must name exactly those (they are put in the FitResult's order), and
+    ``outputs`` only its outputs.
+
+    Parameters
+    ----------
+    o : dict
+        The run's options (``params``, ``inputs``, ``outputs``); updated in place.
+    name : str
+        The generic model diagnosed (``"foptd"`` or ``"ss"``). A FitResult of another
+        model only fills the columns not given; :func:`_given` refuses it.
+
+    Raises
+    ------
+    ConfigError
+        ``inputs`` other than the FitResult's exogenous columns, or an output it lacks;
+        the message names both.
+    """
+    fit = load_fit(o["params"])
+    cfg = fit.model_config
+    base = cfg.get("base") if fit.model == "augmented" else fit.model
+    cfg = cfg.get("base_config", cfg) if "base" in cfg else cfg
+    exo = [*cfg.get("inputs", []), *cfg.get("disturbances", [])]
+    outs = list(cfg.get("outputs", []))
+    if base != name:  # another model's FitResult: _given refuses it, naming both models
+        o["inputs"] = o["inputs"] or exo
+        o["outputs"] = o["outputs"] or outs
+        return
+    if o["inputs"] and sorted(o["inputs"]) != sorted(exo):
+        raise ConfigError(
+            f"inputs {list(o['inputs'])} (--inputs) are not the exogenous columns of the "
+            f"FitResult (params, --params), {exo}; a fitted model reads exactly its own: give "
+            "those, or leave out inputs (--inputs) to take them from the FitResult"
+        )
+    bad = [c for c in o["outputs"] or () if c not in outs]
+    if bad:
+        raise ConfigError(
+            f"output(s) {bad} (--outputs) are not outputs of the FitResult (params, --params), "
+            f"whose outputs are {outs}; name some of those, or leave out outputs (--outputs)"
+        )
+    o["inputs"] = exo  # in the FitResult's order: the recordings' input columns follow it
+    o["outputs"] = o["outputs"] or outs
 
 
 def _beyond_training(
