@@ -376,6 +376,36 @@ def test_an_output_over_an_inputs_sidecar_is_refused(strut_csv, tmp_path, capsys
         assert _digest(tmp_path) == before, argv
 
 
+def test_rls_from_fit_reads_the_fits_columns_at_the_fits_period(strut_csv, tmp_path, capsys):
+    data = tmp_path / "a.csv"  # no sidecar: no roles to reorder the columns by
+    data.write_bytes(strut_csv.read_bytes())
+    lines = data.read_text().splitlines()
+    half = tmp_path / "half.csv"  # every second sample: twice the period
+    half.write_text("\n".join([lines[0], *lines[1::2]]) + "\n")
+    fit = tmp_path / "f.json"
+    cols = ["--inputs", "feed_rate,T_air", "--outputs", "T_drive,T_nut"]
+    assert main(["identify", "foptd", str(data), *cols, "--out", str(fit)]) == 0
+    before = _digest(tmp_path)
+    rls = ["identify", "rls", "--from-fit", str(fit)]
+    out = tmp_path / "r.json"
+    # the fit's columns, some left out: named (was a ShapeError on array shapes)
+    argv = [*rls, str(data), "--inputs", "feed_rate", "--outputs", "T_drive", "--out", str(out)]
+    assert main(argv) == 2
+    _one_error_line(capsys, "--inputs ['feed_rate']", "'T_air'", "f.json")
+    # another period than the fit's: named (was fed on as if sampled at the fit's period)
+    assert main([*rls, str(half), *cols, "--out", str(out)]) == 2
+    _one_error_line(capsys, "'half'", "281.8 s", "140.9 s")
+    assert main(["identify", "rls", str(data), str(half), *cols, "--out", str(out)]) == 2
+    _one_error_line(capsys, "'half'", "281.8 s")
+    assert _digest(tmp_path) == before
+    # the same columns in another order: each gain stays with its column (were swapped)
+    assert main([*rls, str(data), *cols, "--out", str(out)]) == 0
+    own = json.loads(out.read_text())["parameters"]
+    swapped = ["--inputs", "T_air,feed_rate", "--outputs", "T_nut,T_drive"]
+    assert main([*rls, str(data), *swapped, "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["parameters"] == pytest.approx(own)
+
+
 def test_a_failed_run_replaces_nothing(axt_csv, tmp_path, capsys):
     out = tmp_path / "sim.csv"
     out.write_text("time,x\n0,1\n")
