@@ -373,6 +373,34 @@ def test_validate_for_units(axt, sim):
         gap.validate_for(axt, finite=True)
 
 
+def test_temperatures_below_absolute_zero_are_named(axt, sim, tmp_path, capsys):
+    # a logger's error code (-9999) or a column in another unit: refused where a unit says
+    # the column is a temperature (its own, or the model's for a column without one)
+    rec = Recording.from_simulation(sim)
+    t_u = np.where(np.arange(rec.n_samples) == 7, -9999.0, rec["T_U"])
+    bad = rec.with_columns(T_U=t_u)
+    with pytest.raises(UnitError, match=r"'T_U' .* holds -9999 at row 7 .*absolute zero"):
+        bad.validate_for(axt)
+    with pytest.raises(UnitError, match=r"-273\.15 °C, the unit model 'axt211' expects"):
+        bad.replace(units={}).validate_for(axt)
+    with pytest.raises(UnitError, match=r"'T_U' .*0 K, its unit"):
+        bad.replace(units={**rec.units, "T_U": "K"}).check_temperatures()
+    bad.replace(units={}).check_temperatures()  # no unit anywhere: not known to be one
+    bad.with_columns(T_U=np.where(t_u < -300, np.nan, t_u)).validate_for(axt)  # NaN: missing
+    # the command line refuses it as it reads the file (its sidecar says °C), model or not
+    from thermogym.cli import main
+
+    path = tmp_path / "r.csv"
+    write_recording(bad, path)
+    assert read_recording(path).equals(bad)  # the reader itself reads what was written
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    argv = ["identify", "foptd", str(path), "--inputs", "u", "--outputs", "T_P"]
+    assert main([*argv, "--out", str(tmp_path / "f.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "r.csv" in err and "'T_U'" in err and "-9999 at row 7" in err and "\n" not in err
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
 # ------------------------------------------------------------------------------ files
 
 

@@ -19,7 +19,7 @@ import numpy as np
 # replacement there is used (the tests that check bad input is refused before any work)
 from thermogym import datasets, recording
 from thermogym._checks import in_range, integer
-from thermogym.errors import ConfigError, RecordingError
+from thermogym.errors import ConfigError, RecordingError, UnitError
 from thermogym.identification.prepare import _DETREND_KINDS, _RESAMPLE_METHODS, resample
 from thermogym.identification.prepare import prepare as run_prepare
 from thermogym.recording import CSV_SUFFIXES, PARQUET_SUFFIXES
@@ -228,7 +228,11 @@ def regularise(rec: Any, label: str, say: Callable[[str], None] = print) -> Any:
 
 
 def _check_finite(rec: Any, label: str) -> None:
-    """Refuse what no sensor records: ±inf, and a single sample (NaN is a missing sample)."""
+    """Refuse what no sensor records (NaN is a missing sample).
+
+    ±inf, a single sample, and a temperature below absolute zero where the file gives
+    the column a unit (``°C``, ``K``: a logger's error code such as -9999).
+    """
     if rec.n_samples < 2:
         raise RecordingError(
             f"recording {label!r} has a single sample; a recording needs at least 2"
@@ -243,6 +247,10 @@ def _check_finite(rec: Any, label: str) -> None:
                 f"{float(rec.time[i]):g} s); expected finite values (an empty field for a "
                 "missing sample)"
             )
+    try:
+        rec.check_temperatures()
+    except UnitError as e:
+        raise UnitError(f"{label!r}: {e}") from e
 
 
 def recording_inputs(items: Sequence[str] | None) -> list[str]:

@@ -55,6 +55,15 @@ def _canonical_unit(unit: str) -> str:
 _UNSPECIFIED_UNITS = frozenset({"1", "?", "unknown", "none", "n/a"})
 
 
+#: The lowest value a temperature takes (absolute zero), per canonical unit.
+_ABSOLUTE_ZERO = {"°C": -273.15, "K": 0.0}
+
+
+def _absolute_zero(unit: str | None) -> float | None:
+    """Absolute zero in ``unit`` when it is a temperature unit (``°C``, ``K``), else None."""
+    return None if unit is None else _ABSOLUTE_ZERO.get(_canonical_unit(unit))
+
+
 def _unit_unspecified(unit: str | None) -> bool:
     """Whether ``unit`` says nothing (missing, empty, ``"1"``, ``"-"``, ``"unknown"``)."""
     return unit is None or _canonical_unit(unit).lower() in _UNSPECIFIED_UNITS
