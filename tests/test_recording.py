@@ -546,6 +546,9 @@ def test_corrupt_or_mismatched_sidecar(tmp_path):
     side.write_text(json.dumps({"units": {"nope": "V"}}))
     with pytest.raises(RecordingError, match="'nope'"):
         read_recording(p)
+    side.write_text(json.dumps({"units": {"time": "ms"}}))  # was the one message without the file
+    with pytest.raises(UnitError, match=r"a\.csv': time is always in seconds.*'ms'"):
+        read_recording(p)
 
 
 def test_overwrite_false_refuses_and_keeps_bytes(tmp_path):

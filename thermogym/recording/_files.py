@@ -457,7 +457,9 @@ def read_recording(
             meta=meta,
             where=where,
         )
-    except UnitError:
-        raise
+    except UnitError as e:
+        if where in str(e):  # a conflict of the sidecar with ``units=`` names the file
+            raise
+        raise UnitError(f"{where}: {e}") from e  # e.g. a unit of 'time' other than s
     except RecordingError as e:
         raise RecordingError(f"{where}: {e}") from e
