@@ -366,6 +366,18 @@ def test_given_nominal_parameters_are_used_as_they_are(tmp_path):
         diagnose("strut", tr, va, params=FitResult.from_model(AXT211()))
 
 
+def test_an_output_left_empty_throughout_is_named():
+    # was "residual of 'T_drive' has fewer than 8 valid samples in every recording" (and a
+    # 'Mean of empty slice' warning) after the nominal fit
+    tr, va = _strut(seed=4)
+    off = [r.with_columns(T_drive=np.full(r.n_samples, np.nan)) for r in tr]
+    with pytest.raises(RecordingError, match=r"\['T_drive'\] .* any training recording"):
+        diagnose("strut", off, va, max_effects=1, time_limit=2.0)
+    off = [r.with_columns(T_drive=np.full(r.n_samples, np.nan)) for r in va]
+    with pytest.raises(RecordingError, match=r"\['T_drive'\] .* any validation recording"):
+        diagnose("strut", tr, off, max_effects=1, time_limit=2.0)
+
+
 def test_a_given_generic_fit_takes_its_own_input_columns_in_its_own_order(tmp_path):
     # a FitResult of foptd with two exogenous columns; recordings without roles (a plain CSV)
     from thermogym.identification.foptd import fit_foptd

@@ -100,6 +100,15 @@ def _check_inputs(st: _Run) -> None:
             f"({list(nominal.output_names)}); columns are {list(st.tr_list[0].columns)}: are they "
             "recordings of another plant?"
         )
+    for role, recs in (("training", st.tr_list), ("validation", st.va_list)):
+        # an output column left empty throughout (a sensor that was off)
+        empty = [x for x in outs if not any(np.isfinite(r[x]).any() for r in recs if x in r)]
+        if empty:
+            raise RecordingError(
+                f"output(s) {empty} hold no finite sample in any {role} recording "
+                f"({[r.experiment_id for r in recs]}); expected measurements to compare: give "
+                "--outputs without them, or recordings that measured them"
+            )
     if st.generic and o["params"] is None:
         # operating point: the training data's mean exogenous values (model column order)
         us = [r.exogenous_array(nominal) for r in st.tr_list]
