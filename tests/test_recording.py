@@ -469,6 +469,15 @@ def test_foreign_csv_without_sidecar(tmp_path):
     assert np.isnan(rec["T_U"][1]) and rec.experiment_id == "log"
     with pytest.raises(RecordingError, match=r"non-numeric value 'a' at row 0 \(line 2\)"):
         read_recording(p, time="t", delimiter=";")
+    # a logger's clock (times of day) and a true/false column: named as written, with the
+    # fix; not "datetime.time(8, 0)" nor the units-row hint of a text cell
+    p.write_text("time,u,y\n08:00:00,1,2\n08:00:01,1,3\n")
+    with pytest.raises(RecordingError, match=r"value '08:00:00' at row 0 .*times of day") as e:
+        read_recording(p)
+    assert "units row" not in str(e.value)
+    p.write_text("time,u,y\n0,true,2\n1,false,3\n")
+    with pytest.raises(RecordingError, match=r"'u' holds .* True at row 0 .*true/false: give 1/0"):
+        read_recording(p)
 
 
 def test_explicit_units_must_agree_with_sidecar(tmp_path):

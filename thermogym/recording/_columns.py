@@ -8,6 +8,7 @@ the roles a column may carry.
 
 from __future__ import annotations
 
+import datetime as dt
 import re
 from collections.abc import Iterable
 from typing import Any
@@ -94,8 +95,13 @@ def _check_name(name: Any) -> str:
 
 
 def _show(v: Any) -> str:
-    """``repr`` of a value, numpy scalars shown as the Python value they hold."""
-    return repr(v.item() if isinstance(v, np.generic) else v)
+    """``repr`` of a value as a file wrote it.
+
+    Numpy scalars as the Python value they hold, a date or a time of day as its text
+    (``'08:00:00'``, not ``datetime.time(8, 0)``).
+    """
+    v = v.item() if isinstance(v, np.generic) else v
+    return repr(v.isoformat()) if isinstance(v, dt.date | dt.time) else repr(v)
 
 
 def _first_true(mask: NDArray[np.bool_]) -> int:
