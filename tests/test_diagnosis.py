@@ -378,6 +378,15 @@ def test_an_output_left_empty_throughout_is_named():
         diagnose("strut", tr, off, max_effects=1, time_limit=2.0)
 
 
+def test_validation_data_that_is_training_data_is_said():
+    tr, va = _strut(seed=4)
+    again = tr[0].replace(experiment_id="copy", units={})  # the same file copied, no sidecar
+    rep = diagnose("strut", tr, [again, va[0]], candidates=["sensor_offset"], time_limit=2.0)
+    said = [n for n in rep.notes if "same data" in n]
+    assert len(said) == 1 and "'copy'" in said[0] and f"{tr[0].experiment_id!r}" in said[0]
+    assert not any("same data" in n for n in diagnose("strut", tr, va[:1], time_limit=2.0).notes)
+
+
 def test_a_given_generic_fit_takes_its_own_input_columns_in_its_own_order(tmp_path):
     # a FitResult of foptd with two exogenous columns; recordings without roles (a plain CSV)
     from thermogym.identification.foptd import fit_foptd

@@ -100,6 +100,13 @@ def _check_inputs(st: _Run) -> None:
             f"({list(nominal.output_names)}); columns are {list(st.tr_list[0].columns)}: are they "
             "recordings of another plant?"
         )
+    for r in st.va_list:  # the same data on both sides: its scores are not held out
+        for twin in (q for q in st.tr_list if _same_data(q, r)):
+            st.notes.append(
+                f"validation recording {r.experiment_id!r} holds the same data as training "
+                f"recording {twin.experiment_id!r}: its held-out scores are training scores "
+                "(give recordings not used for training)"
+            )
     for role, recs in (("training", st.tr_list), ("validation", st.va_list)):
         # an output column left empty throughout (a sensor that was off)
         empty = [x for x in outs if not any(np.isfinite(r[x]).any() for r in recs if x in r)]
@@ -132,6 +139,16 @@ def _check_inputs(st: _Run) -> None:
                 )
         nominal = spec.build()
     st.model, st.spec, st.outs = nominal, spec, outs
+
+
+def _same_data(a: Recording, b: Recording) -> bool:
+    """Whether two recordings hold the same samples (units, ids and metadata aside)."""
+    return (
+        a.n_samples == b.n_samples
+        and set(a.columns) == set(b.columns)
+        and np.array_equal(a.time, b.time)
+        and all(np.array_equal(a[c], b[c], equal_nan=True) for c in a.columns)
+    )
 
 
 def _fit_columns(o: dict[str, Any], name: str) -> None:
