@@ -406,6 +406,27 @@ def test_rls_from_fit_reads_the_fits_columns_at_the_fits_period(strut_csv, tmp_p
     assert json.loads(out.read_text())["parameters"] == pytest.approx(own)
 
 
+def test_a_folders_manifest_of_the_wrong_shape_is_named(strut_csv, tmp_path, capsys):
+    folder = tmp_path / "set"
+    folder.mkdir()
+    (folder / "a.csv").write_bytes(strut_csv.read_bytes())
+    argv = ["identify", "foptd", str(folder), "--inputs", "feed_rate", "--outputs", "T_drive",
+            "--out", str(tmp_path / "f.json")]  # fmt: skip
+    cases = [  # an empty list was an IndexError (internal error); a file listed twice was fitted
+        ({"recordings": []}, ["manifest.json", "lists no recording", '"recordings"']),
+        ({"recordings": [{"file": "a.csv"}, {"file": "a.csv"}]}, ["['a.csv'] more than once"]),
+        ({"recordings": {"a": 1}}, ["manifest.json", "does not list", '"file": NAME']),
+        ({"recordings": [{"id": "a"}]}, ["manifest.json", "does not list", '"file": NAME']),
+        (["a.csv"], ["manifest.json", "does not list"]),
+    ]
+    for doc, needles in cases:
+        (folder / "manifest.json").write_text(json.dumps(doc))
+        before = _digest(tmp_path)
+        assert main(argv) == 2, doc
+        _one_error_line(capsys, str(folder), *needles)
+        assert _digest(tmp_path) == before
+
+
 def test_a_failed_run_replaces_nothing(axt_csv, tmp_path, capsys):
     out = tmp_path / "sim.csv"
     out.write_text("time,x\n0,1\n")

@@ -177,14 +177,27 @@ def parse_prepare(items: Sequence[str] | None) -> dict[str, Any] | None:
 def _files_of(folder: Path, what: str) -> list[Path]:
     manifest = folder / "manifest.json"
     if manifest.is_file():
+        where = f"{what} folder {str(folder)!r}: its manifest.json"
+        shape = 'expected {"recordings": [{"file": NAME, ...}, ...]}, one entry per recording'
         try:
             doc = json.loads(manifest.read_text(encoding="utf-8"))
-            files = [folder / str(e["file"]) for e in doc["recordings"]]
-        except (ValueError, KeyError, TypeError, UnicodeDecodeError) as e:
+        except (ValueError, UnicodeDecodeError) as e:
+            raise RecordingError(f"{where} cannot be read ({e}); fix or delete it") from e
+        entries = doc.get("recordings") if isinstance(doc, dict) else None
+        if not isinstance(entries, list) or not all(
+            isinstance(e, dict) and isinstance(e.get("file"), str) and e["file"].strip()
+            for e in entries
+        ):
+            raise RecordingError(f"{where} does not list recordings as {shape}; fix or delete it")
+        if not entries:
+            raise RecordingError(f"{where} lists no recording; {shape}")
+        files = [folder / e["file"] for e in entries]
+        names = [e["file"] for e in entries]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
             raise RecordingError(
-                f"{what} folder {str(folder)!r}: its manifest.json cannot be read ({e}); fix "
-                "or delete it"
-            ) from e
+                f"{where} lists {twice} more than once; expected each recording once"
+            )
         missing = [str(f) for f in files if not f.is_file()]
         if missing:
             raise RecordingError(
