@@ -862,6 +862,12 @@ def test_recordings_in_other_encodings_are_named(tmp_path):
         read_recording(p)
     p.write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode())  # BOM and CRLF: fine
     assert read_recording(p)["T_U"].tolist() == [20.0, 21.0, 21.0]
+    import gzip
+
+    p = tmp_path / "packed.csv"  # gzip content without .gz: was "not UTF-8 ... Latin-1?"
+    p.write_bytes(gzip.compress(text.encode()))
+    with pytest.raises(RecordingError, match=r"packed\.csv' is gzip-compressed.*'packed\.csv\.gz'"):
+        read_recording(p)
 
 
 def test_fitresult_with_a_bom_reads_and_a_deep_one_is_named(tmp_path, axt_csv, capsys):
