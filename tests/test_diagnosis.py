@@ -376,6 +376,10 @@ def test_an_output_left_empty_throughout_is_named():
     off = [r.with_columns(T_drive=np.full(r.n_samples, np.nan)) for r in va]
     with pytest.raises(RecordingError, match=r"\['T_drive'\] .* any validation recording"):
         diagnose("strut", tr, off, max_effects=1, time_limit=2.0)
+    # a column missing (not empty): left out, and the report says so
+    rep = diagnose("strut", [r.drop("T_drive") for r in tr], va, max_effects=1, time_limit=2.0)
+    said = [n for n in rep.notes if "left out" in n]
+    assert len(said) == 1 and "['T_drive']" in said[0] and "T_drive" not in rep.outputs
 
 
 def test_validation_data_that_is_training_data_is_said():

@@ -94,6 +94,13 @@ def _check_inputs(st: _Run) -> None:
         outs = [
             x for x in nominal.output_names if all(x in r.columns for r in st.tr_list + st.va_list)
         ]
+        left = [x for x in nominal.output_names if x not in outs]
+        if outs and left and not st.generic:
+            st.notes.append(
+                f"output(s) {left} of model {nominal.name!r} are not columns of every recording "
+                f"and are left out; the diagnosis compares {outs} (name them with outputs=..., "
+                "--outputs)"
+            )
     if not outs:
         raise RecordingError(
             f"the recordings hold none of the outputs of model {nominal.name!r} "
