@@ -353,6 +353,80 @@ def test_outputs_are_checked_before_any_work(axt_csv, tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ax.csv"]
 
 
+def test_an_output_over_an_inputs_sidecar_is_refused(strut_csv, tmp_path, capsys):
+    """A JSON output named like an input CSV's ``.meta.json`` would replace its metadata."""
+    data = tmp_path / "a.csv"
+    data.write_bytes(strut_csv.read_bytes())
+    side = tmp_path / "a.csv.meta.json"
+    side.write_bytes((strut_csv.parent / (strut_csv.name + ".meta.json")).read_bytes())
+    bare = tmp_path / "b.csv"  # no sidecar yet: one written there would be read with it
+    bare.write_bytes(strut_csv.read_bytes())
+    before = _digest(tmp_path)
+    foptd = ["identify", "foptd", "--inputs", "feed_rate", "--outputs", "T_drive"]
+    diag = ["diagnose", "--model", "strut", "--train", str(data), "--validate", str(bare)]
+    cases = [
+        ([*foptd, str(data), "--out", str(side)], ["--out", "sidecar of", "a.csv"]),
+        ([*foptd, str(bare), "--out", str(tmp_path / "b.csv.meta.json")], ["sidecar of"]),
+        ([*diag, "--out", str(tmp_path / "b.csv.meta.json")], ["--validate", "b.csv"]),
+        ([*diag, "--out", str(tmp_path / "r.json"), "--augmented-fit", str(side)], ["--train"]),
+    ]
+    for argv, needles in cases:
+        assert main(argv) == 2, argv
+        _one_error_line(capsys, "also an input", *needles)
+        assert _digest(tmp_path) == before, argv
+
+
+def test_rls_from_fit_reads_the_fits_columns_at_the_fits_period(strut_csv, tmp_path, capsys):
+    data = tmp_path / "a.csv"  # no sidecar: no roles to reorder the columns by
+    data.write_bytes(strut_csv.read_bytes())
+    lines = data.read_text().splitlines()
+    half = tmp_path / "half.csv"  # every second sample: twice the period
+    half.write_text("\n".join([lines[0], *lines[1::2]]) + "\n")
+    fit = tmp_path / "f.json"
+    cols = ["--inputs", "feed_rate,T_air", "--outputs", "T_drive,T_nut"]
+    assert main(["identify", "foptd", str(data), *cols, "--out", str(fit)]) == 0
+    before = _digest(tmp_path)
+    rls = ["identify", "rls", "--from-fit", str(fit)]
+    out = tmp_path / "r.json"
+    # the fit's columns, some left out: named (was a ShapeError on array shapes)
+    argv = [*rls, str(data), "--inputs", "feed_rate", "--outputs", "T_drive", "--out", str(out)]
+    assert main(argv) == 2
+    _one_error_line(capsys, "--inputs ['feed_rate']", "'T_air'", "f.json")
+    # another period than the fit's: named (was fed on as if sampled at the fit's period)
+    assert main([*rls, str(half), *cols, "--out", str(out)]) == 2
+    _one_error_line(capsys, "'half'", "281.8 s", "140.9 s")
+    assert main(["identify", "rls", str(data), str(half), *cols, "--out", str(out)]) == 2
+    _one_error_line(capsys, "'half'", "281.8 s")
+    assert _digest(tmp_path) == before
+    # the same columns in another order: each gain stays with its column (were swapped)
+    assert main([*rls, str(data), *cols, "--out", str(out)]) == 0
+    own = json.loads(out.read_text())["parameters"]
+    swapped = ["--inputs", "T_air,feed_rate", "--outputs", "T_nut,T_drive"]
+    assert main([*rls, str(data), *swapped, "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["parameters"] == pytest.approx(own)
+
+
+def test_a_folders_manifest_of_the_wrong_shape_is_named(strut_csv, tmp_path, capsys):
+    folder = tmp_path / "set"
+    folder.mkdir()
+    (folder / "a.csv").write_bytes(strut_csv.read_bytes())
+    argv = ["identify", "foptd", str(folder), "--inputs", "feed_rate", "--outputs", "T_drive",
+            "--out", str(tmp_path / "f.json")]  # fmt: skip
+    cases = [  # an empty list was an IndexError (internal error); a file listed twice was fitted
+        ({"recordings": []}, ["manifest.json", "lists no recording", '"recordings"']),
+        ({"recordings": [{"file": "a.csv"}, {"file": "a.csv"}]}, ["['a.csv'] more than once"]),
+        ({"recordings": {"a": 1}}, ["manifest.json", "does not list", '"file": NAME']),
+        ({"recordings": [{"id": "a"}]}, ["manifest.json", "does not list", '"file": NAME']),
+        (["a.csv"], ["manifest.json", "does not list"]),
+    ]
+    for doc, needles in cases:
+        (folder / "manifest.json").write_text(json.dumps(doc))
+        before = _digest(tmp_path)
+        assert main(argv) == 2, doc
+        _one_error_line(capsys, str(folder), *needles)
+        assert _digest(tmp_path) == before
+
+
 def test_a_failed_run_replaces_nothing(axt_csv, tmp_path, capsys):
     out = tmp_path / "sim.csv"
     out.write_text("time,x\n0,1\n")
@@ -788,6 +862,12 @@ def test_recordings_in_other_encodings_are_named(tmp_path):
         read_recording(p)
     p.write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode())  # BOM and CRLF: fine
     assert read_recording(p)["T_U"].tolist() == [20.0, 21.0, 21.0]
+    import gzip
+
+    p = tmp_path / "packed.csv"  # gzip content without .gz: was "not UTF-8 ... Latin-1?"
+    p.write_bytes(gzip.compress(text.encode()))
+    with pytest.raises(RecordingError, match=r"packed\.csv' is gzip-compressed.*'packed\.csv\.gz'"):
+        read_recording(p)
 
 
 def test_fitresult_with_a_bom_reads_and_a_deep_one_is_named(tmp_path, axt_csv, capsys):

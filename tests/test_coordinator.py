@@ -208,6 +208,23 @@ def test_cli_montecarlo_writes_a_fit(strut_files, tmp_path, capsys):
     assert "wrote" in capsys.readouterr().out
 
 
+def test_cli_search_says_which_model_outputs_it_left_out(strut_recs, tmp_path, capsys):
+    # a recording without one of the model's outputs: the default pairs leave it out; the
+    # fit and the console say so (before, nothing told the fit was on part of the outputs)
+    rec = strut_recs[0].drop("T_drive")
+    write_recording(rec, tmp_path / "r.csv")
+    out = tmp_path / "fit.json"
+    argv = ["identify", "montecarlo", "--model", "strut", str(tmp_path / "r.csv"), "--free",
+            "r_nut", "--samples", "20", "--no-progress", "--out", str(out)]  # fmt: skip
+    assert cli(argv) == 0
+    said = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("note:")]
+    assert len(said) == 1 and "['T_drive']" in said[0] and "left out" in said[0]
+    warned = [w for w in FitResult.load(out).warnings if w["code"] == "outputs_left_out"]
+    assert len(warned) == 1 and "'T_nut'" in warned[0]["message"]
+    assert cli([*argv, "--pair", "T_nut"]) == 0  # pairs named: nothing left out unasked
+    assert "left out" not in capsys.readouterr().out
+
+
 def test_cli_greybox_on_a_folder_and_refusals(strut_files, tmp_path, capsys):
     out = tmp_path / "fit.json"
     args = [

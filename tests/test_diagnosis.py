@@ -366,6 +366,51 @@ def test_given_nominal_parameters_are_used_as_they_are(tmp_path):
         diagnose("strut", tr, va, params=FitResult.from_model(AXT211()))
 
 
+def test_an_output_left_empty_throughout_is_named():
+    # was "residual of 'T_drive' has fewer than 8 valid samples in every recording" (and a
+    # 'Mean of empty slice' warning) after the nominal fit
+    tr, va = _strut(seed=4)
+    off = [r.with_columns(T_drive=np.full(r.n_samples, np.nan)) for r in tr]
+    with pytest.raises(RecordingError, match=r"\['T_drive'\] .* any training recording"):
+        diagnose("strut", off, va, max_effects=1, time_limit=2.0)
+    off = [r.with_columns(T_drive=np.full(r.n_samples, np.nan)) for r in va]
+    with pytest.raises(RecordingError, match=r"\['T_drive'\] .* any validation recording"):
+        diagnose("strut", tr, off, max_effects=1, time_limit=2.0)
+    # a column missing (not empty): left out, and the report says so
+    rep = diagnose("strut", [r.drop("T_drive") for r in tr], va, max_effects=1, time_limit=2.0)
+    said = [n for n in rep.notes if "left out" in n]
+    assert len(said) == 1 and "['T_drive']" in said[0] and "T_drive" not in rep.outputs
+
+
+def test_validation_data_that_is_training_data_is_said():
+    tr, va = _strut(seed=4)
+    again = tr[0].replace(experiment_id="copy", units={})  # the same file copied, no sidecar
+    rep = diagnose("strut", tr, [again, va[0]], candidates=["sensor_offset"], time_limit=2.0)
+    said = [n for n in rep.notes if "same data" in n]
+    assert len(said) == 1 and "'copy'" in said[0] and f"{tr[0].experiment_id!r}" in said[0]
+    assert not any("same data" in n for n in diagnose("strut", tr, va[:1], time_limit=2.0).notes)
+
+
+def test_a_given_generic_fit_takes_its_own_input_columns_in_its_own_order(tmp_path):
+    # a FitResult of foptd with two exogenous columns; recordings without roles (a plain CSV)
+    from thermogym.identification.foptd import fit_foptd
+
+    tr, va = _strut(seed=4)
+    tr, va = [r.replace(roles={}) for r in tr], [r.replace(roles={}) for r in va[:1]]
+    path = tmp_path / "foptd.json"
+    fit_foptd(tr, ["feed_rate", "T_air"], ["T_drive", "T_nut"], disturbances=[]).fit.save(path)
+    kw = dict(params=path, candidates=["sensor_offset"], max_effects=1, time_limit=5.0)
+    # columns other than the FitResult's: named, not an IndexError deep in the run
+    with pytest.raises(ConfigError, match=r"\['feed_rate'\] \(--inputs\).*'T_air'"):
+        diagnose("foptd", tr, va, inputs=["feed_rate"], **kw)
+    with pytest.raises(ConfigError, match=r"\['T_bearing'\] \(--outputs\).*'T_nut'"):
+        diagnose("foptd", tr, va, outputs=["T_bearing"], **kw)
+    # the same columns in another order: the fitted gains stay with their inputs (were swapped)
+    own = diagnose("foptd", tr, va, **kw).nominal_fit.parameters
+    swapped = diagnose("foptd", tr, va, inputs=["T_air", "feed_rate"], **kw)
+    assert swapped.nominal_fit.parameters == pytest.approx(own)
+
+
 @pytest.mark.xfail(
     strict=True,
     reason="known miss after the issue 15 rewrite: the sparse-regression fallback proposes no "

@@ -140,10 +140,13 @@ def test_errors():
     t = np.arange(100.0)
     u = np.r_[np.zeros(5), np.ones(95)]
     rec = Recording(t, {"u": u, "y": np.full(100, 21.0)})  # an output that never responds
-    with pytest.raises(IdentificationError, match=r"no delay .* stable first-order lag"):
+    for mode in ("estimate", "initial"):  # named before any fit, whatever the operating point
+        with pytest.raises(IdentificationError, match="output 'y' is constant"):
+            fit_foptd(rec, ["u"], ["y"], max_delay=5, operating_point_mode=mode)
+    growing = 21.0 + np.r_[np.zeros(5), np.expm1(0.05 * np.arange(95))]  # never settles
+    rec = Recording(t, {"u": u, "y": growing})
+    with pytest.raises(IdentificationError, match=r"output 'y': no delay .* stable first-order"):
         fit_foptd(rec, ["u"], ["y"], max_delay=5, operating_point_mode="initial")
-    with pytest.raises(IdentificationError, match="output 'y' is constant"):
-        fit_foptd(rec, ["u"], ["y"], max_delay=5)
     with pytest.raises(ConfigError, match="not both"):
         fit_foptd(rec, ["u"], ["y"], max_delay=5, max_delay_s=5.0)
     with pytest.raises(IdentificationError, match="too few"):

@@ -207,6 +207,25 @@ def test_bad_options_are_named(kwargs, match):
         pem(rec, ["u"], ["y"], family, **kwargs)
 
 
+def test_a_constant_output_is_named_by_every_family():
+    # a dead sensor or a wrong column: before, ARX/OE failed their cross-validation with no
+    # reason given and SOPDT wrote a fit of gain 0 (exit 0 on the command line)
+    from thermogym.errors import IdentificationError
+    from thermogym.identification.n4sid import n4sid
+
+    u = _prbs(np.random.default_rng(7), 200)
+    rec = _rec(u[:, None], np.full(200, 21.5))
+    for family in ("arx", "oe", "bj"):
+        with pytest.raises(IdentificationError, match=rf"{family.upper()}: output 'y' .*21\.5"):
+            pem(rec, ["u"], ["y"], family)
+    with pytest.raises(IdentificationError, match=r"SOPDT: output 'y' is constant"):
+        sopdt(rec, ["u"], ["y"])
+    with pytest.raises(IdentificationError, match=r"N4SID: output 'y' is constant"):
+        n4sid(rec, ["u"], ["y"], order=2)
+    varying = _rec(u[:, None], lfilter([0, 0.5], [1, -0.5], u))
+    assert prepare_problem([rec, varying], ["u"], ["y"]).outputs == ["y"]  # moves in one
+
+
 def test_polynomial_model_options_are_checked():
     with pytest.raises(ConfigError, match="structure"):
         PolynomialModel(structure="arma")

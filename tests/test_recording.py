@@ -373,6 +373,34 @@ def test_validate_for_units(axt, sim):
         gap.validate_for(axt, finite=True)
 
 
+def test_temperatures_below_absolute_zero_are_named(axt, sim, tmp_path, capsys):
+    # a logger's error code (-9999) or a column in another unit: refused where a unit says
+    # the column is a temperature (its own, or the model's for a column without one)
+    rec = Recording.from_simulation(sim)
+    t_u = np.where(np.arange(rec.n_samples) == 7, -9999.0, rec["T_U"])
+    bad = rec.with_columns(T_U=t_u)
+    with pytest.raises(UnitError, match=r"'T_U' .* holds -9999 at row 7 .*absolute zero"):
+        bad.validate_for(axt)
+    with pytest.raises(UnitError, match=r"-273\.15 °C, the unit model 'axt211' expects"):
+        bad.replace(units={}).validate_for(axt)
+    with pytest.raises(UnitError, match=r"'T_U' .*0 K, its unit"):
+        bad.replace(units={**rec.units, "T_U": "K"}).check_temperatures()
+    bad.replace(units={}).check_temperatures()  # no unit anywhere: not known to be one
+    bad.with_columns(T_U=np.where(t_u < -300, np.nan, t_u)).validate_for(axt)  # NaN: missing
+    # the command line refuses it as it reads the file (its sidecar says °C), model or not
+    from thermogym.cli import main
+
+    path = tmp_path / "r.csv"
+    write_recording(bad, path)
+    assert read_recording(path).equals(bad)  # the reader itself reads what was written
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    argv = ["identify", "foptd", str(path), "--inputs", "u", "--outputs", "T_P"]
+    assert main([*argv, "--out", str(tmp_path / "f.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "r.csv" in err and "'T_U'" in err and "-9999 at row 7" in err and "\n" not in err
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
 # ------------------------------------------------------------------------------ files
 
 
@@ -441,6 +469,15 @@ def test_foreign_csv_without_sidecar(tmp_path):
     assert np.isnan(rec["T_U"][1]) and rec.experiment_id == "log"
     with pytest.raises(RecordingError, match=r"non-numeric value 'a' at row 0 \(line 2\)"):
         read_recording(p, time="t", delimiter=";")
+    # a logger's clock (times of day) and a true/false column: named as written, with the
+    # fix; not "datetime.time(8, 0)" nor the units-row hint of a text cell
+    p.write_text("time,u,y\n08:00:00,1,2\n08:00:01,1,3\n")
+    with pytest.raises(RecordingError, match=r"value '08:00:00' at row 0 .*times of day") as e:
+        read_recording(p)
+    assert "units row" not in str(e.value)
+    p.write_text("time,u,y\n0,true,2\n1,false,3\n")
+    with pytest.raises(RecordingError, match=r"'u' holds .* True at row 0 .*true/false: give 1/0"):
+        read_recording(p)
 
 
 def test_explicit_units_must_agree_with_sidecar(tmp_path):
@@ -517,6 +554,9 @@ def test_corrupt_or_mismatched_sidecar(tmp_path):
         read_recording(p)
     side.write_text(json.dumps({"units": {"nope": "V"}}))
     with pytest.raises(RecordingError, match="'nope'"):
+        read_recording(p)
+    side.write_text(json.dumps({"units": {"time": "ms"}}))  # was the one message without the file
+    with pytest.raises(UnitError, match=r"a\.csv': time is always in seconds.*'ms'"):
         read_recording(p)
 
 

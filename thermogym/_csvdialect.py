@@ -88,7 +88,7 @@ def check_encoding(path: str | os.PathLike[str], where: str | None = None) -> No
     RecordingError
         The file starts with a UTF-16/32 byte-order mark, holds the NUL bytes
         of UTF-16/32 text, or bytes that are not UTF-8 (the first is named
-        with its line).
+        with its line); or it is gzip-compressed without a ``.gz`` name.
 
     Examples
     --------
@@ -109,6 +109,11 @@ def check_encoding(path: str | os.PathLike[str], where: str | None = None) -> No
             head = f.read(65536)
     except (OSError, EOFError) as e:
         raise RecordingError(f"cannot read {where}: {e}") from e
+    if head.startswith(b"\x1f\x8b") and opener is open:  # gzip's magic number
+        raise RecordingError(
+            f"{where} is gzip-compressed; expected plain text: name it {path.name + '.gz'!r} "
+            "(read as compressed CSV) or decompress it"
+        )
     save = "save it as UTF-8 (a spreadsheet's 'CSV UTF-8'; iconv -f {0} -t UTF-8)"
     for bom, name in _BOMS:
         if head.startswith(bom):

@@ -345,6 +345,10 @@ KIND_SUFFIXES: dict[str, tuple[str, ...]] = {
 
 _STAGING_PREFIX = ".thermogym-staging-"
 
+#: endings of a CSV recording, whose ``NAME.meta.json`` sidecar the reader takes with it
+#: (as :data:`thermogym.recording.CSV_SUFFIXES`, not imported: this module stays light)
+_CSV_SUFFIXES = (".csv", ".csv.gz")
+
 
 def _option(dest: str) -> str:
     return "--" + dest.replace("_", "-")
@@ -487,6 +491,11 @@ class OutputPlan:
             return
         p = Path(text)
         self._inputs.append((option, p))
+        if p.name.lower().endswith(_CSV_SUFFIXES):
+            # the reader takes the CSV's units and roles from this sidecar, whether it exists
+            # now or is written later: an output there would replace or reinterpret the input
+            side = p.with_name(p.name + ".meta.json")
+            self._inputs.append((f"{option}: the sidecar of {text!r}", side))
         if p.is_dir():
             try:
                 for f in p.iterdir():
@@ -502,7 +511,7 @@ class OutputPlan:
                     f"{option} {str(p)!r} is also an input ({opt}); writing it would destroy "
                     "the input: choose another name"
                 )
-            if p.name.lower().endswith((".csv", ".csv.gz")):  # its sidecar would be replaced
+            if p.name.lower().endswith(_CSV_SUFFIXES):  # its sidecar would be replaced
                 side = p.with_name(p.name + ".meta.json")
                 if _same(side, q):
                     raise ConfigError(

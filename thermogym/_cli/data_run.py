@@ -19,7 +19,7 @@ import numpy as np
 # replacement there is used (the tests that check bad input is refused before any work)
 from thermogym import datasets, recording
 from thermogym._checks import in_range, integer
-from thermogym.errors import ConfigError, RecordingError
+from thermogym.errors import ConfigError, RecordingError, UnitError
 from thermogym.identification.prepare import _DETREND_KINDS, _RESAMPLE_METHODS, resample
 from thermogym.identification.prepare import prepare as run_prepare
 from thermogym.recording import CSV_SUFFIXES, PARQUET_SUFFIXES
@@ -177,14 +177,27 @@ def parse_prepare(items: Sequence[str] | None) -> dict[str, Any] | None:
 def _files_of(folder: Path, what: str) -> list[Path]:
     manifest = folder / "manifest.json"
     if manifest.is_file():
+        where = f"{what} folder {str(folder)!r}: its manifest.json"
+        shape = 'expected {"recordings": [{"file": NAME, ...}, ...]}, one entry per recording'
         try:
             doc = json.loads(manifest.read_text(encoding="utf-8"))
-            files = [folder / str(e["file"]) for e in doc["recordings"]]
-        except (ValueError, KeyError, TypeError, UnicodeDecodeError) as e:
+        except (ValueError, UnicodeDecodeError) as e:
+            raise RecordingError(f"{where} cannot be read ({e}); fix or delete it") from e
+        entries = doc.get("recordings") if isinstance(doc, dict) else None
+        if not isinstance(entries, list) or not all(
+            isinstance(e, dict) and isinstance(e.get("file"), str) and e["file"].strip()
+            for e in entries
+        ):
+            raise RecordingError(f"{where} does not list recordings as {shape}; fix or delete it")
+        if not entries:
+            raise RecordingError(f"{where} lists no recording; {shape}")
+        files = [folder / e["file"] for e in entries]
+        names = [e["file"] for e in entries]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
             raise RecordingError(
-                f"{what} folder {str(folder)!r}: its manifest.json cannot be read ({e}); fix "
-                "or delete it"
-            ) from e
+                f"{where} lists {twice} more than once; expected each recording once"
+            )
         missing = [str(f) for f in files if not f.is_file()]
         if missing:
             raise RecordingError(
@@ -228,7 +241,11 @@ def regularise(rec: Any, label: str, say: Callable[[str], None] = print) -> Any:
 
 
 def _check_finite(rec: Any, label: str) -> None:
-    """Refuse what no sensor records: ±inf, and a single sample (NaN is a missing sample)."""
+    """Refuse what no sensor records (NaN is a missing sample).
+
+    ±inf, a single sample, and a temperature below absolute zero where the file gives
+    the column a unit (``°C``, ``K``: a logger's error code such as -9999).
+    """
     if rec.n_samples < 2:
         raise RecordingError(
             f"recording {label!r} has a single sample; a recording needs at least 2"
@@ -243,6 +260,10 @@ def _check_finite(rec: Any, label: str) -> None:
                 f"{float(rec.time[i]):g} s); expected finite values (an empty field for a "
                 "missing sample)"
             )
+    try:
+        rec.check_temperatures()
+    except UnitError as e:
+        raise UnitError(f"{label!r}: {e}") from e
 
 
 def recording_inputs(items: Sequence[str] | None) -> list[str]:

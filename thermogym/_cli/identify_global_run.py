@@ -233,6 +233,15 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
             f"so far is in {saved} (criterion {result.criterion:.6g}); --out {args.out} was "
             "left unchanged"
         )
+    left = [o for o in model.output_names if o not in {p.simulated for p in problem.pairs}]
+    if left and not pairs:  # the default pairs: the outputs every recording measures
+        text = (
+            f"output(s) {left} of model {model.name!r} are not columns of every training "
+            f"recording and were left out of the fit; it compares "
+            f"{[p.label for p in problem.pairs]} (name them with --pair)"
+        )
+        result.fit.add_warnings([{"code": "outputs_left_out", "message": text}])
+        print(f"note: {text}")
     result.fit.save(plan.path("--out"))
     if args.history is not None:
         result.save_history(plan.path("--history"))

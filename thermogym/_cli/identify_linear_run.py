@@ -275,11 +275,67 @@ def _identify(method: str, args: argparse.Namespace, prep: Any, plan: Any) -> in
     return 0
 
 
+def _from_fit_columns(
+    args: argparse.Namespace, est: RecursiveFOPTD, exo: list[str], outputs: list[str]
+) -> tuple[list[str], list[str]]:
+    """The columns a warm start from ``--from-fit`` reads: the fit's own, in its order.
+
+    ``--inputs``/``--outputs`` given must name the same columns (in any order): the
+    recursion continues the fit's gains, which belong to its columns.
+
+    Raises
+    ------
+    ConfigError
+        Naming the columns given and the fit's.
+    """
+    if args.inputs is not None and sorted(exo) != sorted(est.inputs):
+        raise ConfigError(
+            f"--inputs {exo} are not the exogenous columns of --from-fit "
+            f"{str(args.from_fit)!r}, {est.inputs}; give those"
+        )
+    if args.outputs is not None and sorted(outputs) != sorted(est.outputs):
+        raise ConfigError(
+            f"--outputs {outputs} are not the outputs of --from-fit {str(args.from_fit)!r}, "
+            f"{est.outputs}; give those"
+        )
+    return list(est.inputs), list(est.outputs)
+
+
+def _rls_arrays(
+    train: list[Any], exo: list[str], outputs: list[str], dt: float
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``(u, y)`` of every training recording, checked for the recursion of period ``dt``.
+
+    Raises
+    ------
+    RecordingError, UnknownNameError
+        A missing column, an uneven time axis or a non-finite sample, named.
+    ConfigError
+        A recording sampled at another period than ``dt`` (the recursion's
+        coefficients hold for one period only).
+    """
+    out = []
+    for rec in train:
+        rec.select([*exo, *outputs])  # names a missing column
+        if abs(rec.dt - dt) > 1e-9 * dt:  # rec.dt names an uneven step
+            raise ConfigError(
+                f"recording {rec.experiment_id!r} is sampled every {rec.dt:g} s; the RLS "
+                f"recursion runs at {dt:g} s (its delays and poles are per sample): resample it "
+                "(--prepare dt=SECONDS) or give recordings of one period"
+            )
+        rec.check_values([*exo, *outputs])  # non-finite samples, named
+        u = np.column_stack([rec[c] for c in exo])
+        y = np.column_stack([rec[c] for c in outputs])
+        out.append((u, y))
+    return out
+
+
 def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyped-def]
     ins, dis = exogenous_roles(train[0], inputs, dist)
     exo = ins + dis
     if args.from_fit:
         est = RecursiveFOPTD.from_fit(args.from_fit, forgetting=args.forgetting)
+        exo, outputs = _from_fit_columns(args, est, exo, outputs)
     else:
         if args.delays:
             delays = _delays(args.delays)
@@ -311,9 +367,7 @@ def _run_rls(args, train, vals, inputs, outputs, dist):  # type: ignore[no-untyp
             forgetting=args.forgetting,
             units={k: v for k, v in train[0].units.items()},
         )
-    for rec in train:
-        u = np.column_stack([rec[c] for c in exo])
-        y = np.column_stack([rec[c] for c in outputs])
+    for u, y in _rls_arrays(train, exo, outputs, est.dt):
         est.update_many(u, y)
     fit = est.to_fitresult()
     fit.data = [data_entry(r, "train") for r in train] + [data_entry(r, "validation") for r in vals]

@@ -59,6 +59,7 @@ def _problem(
     disturbances: Sequence[str] | None,
     operating_point_mode: str,
     offsets: Mapping[str, Any] | None = None,
+    what: str = "N4SID",
 ) -> N4SIDProblem:
     return prepare_problem(
         recordings,
@@ -68,6 +69,7 @@ def _problem(
         operating_point_mode=operating_point_mode,
         min_samples=8,
         offsets=offsets,
+        what=what,
     )
 
 

@@ -73,7 +73,9 @@ def sopdt(
     [0.5, 80.0, 15.0, 6.0]
     """
     t0 = time.perf_counter()
-    prob = _problem(recordings, inputs, outputs, disturbances, operating_point_mode, offsets)
+    prob = _problem(
+        recordings, inputs, outputs, disturbances, operating_point_mode, offsets, "SOPDT"
+    )
     vals = [validate] if isinstance(validate, Recording) else list(validate)
     final, th, cov, info = _sopdt_fit(prob, max_delay_s, max_nfev)
     settings = {

@@ -612,6 +612,7 @@ def fit_foptd_arrays(
     delays: Sequence[int] | NDArray[np.int64] = range(0, 21),
     criterion: str = "simulation",
     start: str = "steady",
+    names: Sequence[str] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], list[OutputFit]]:
     """FOPTD parameters from deviation data (numerical core of :func:`fit_foptd`).
 
@@ -629,6 +630,8 @@ def fit_foptd_arrays(
     start : {"steady", "rest"}
         Before ``t = 0`` the inputs held at their first sample and the outputs
         in the matching steady state, or both zero (at rest, zero input).
+    names : sequence of str, optional
+        Names of the outputs, for messages (default ``#0``, ``#1``, ...).
 
     Returns
     -------
@@ -663,7 +666,8 @@ def fit_foptd_arrays(
             f"{int(dl[-1])} samples (need at least {int(dl[-1]) + 4}); lower max_delay"
         )
     p, m = ys[0].shape[1], us[0].shape[1]
-    fits = [_fit_output(us, [v[:, j] for v in ys], dl, criterion, f"#{j}", hold) for j in range(p)]
+    label = [str(c) for c in names] if names is not None else [f"#{j}" for j in range(p)]
+    fits = [_fit_output(us, [v[:, j] for v in ys], dl, criterion, label[j], hold) for j in range(p)]
     a = np.array([f.a for f in fits])[:, None]
     b = np.stack([f.b for f in fits])
     d = np.stack([f.d for f in fits])
@@ -849,7 +853,13 @@ def fit_foptd(
         # rest / none: at rest with zero (deviation) input before t = 0
         steady = operating_point_mode in ("initial", "mean")
         K, T, tau, fits = fit_foptd_arrays(
-            us, ys, dt, delays=delays, criterion=criterion, start="steady" if steady else "rest"
+            us,
+            ys,
+            dt,
+            delays=delays,
+            criterion=criterion,
+            start="steady" if steady else "rest",
+            names=outputs,
         )
         # operating point of the model: the mean over the experiments (output at rest there)
         u_op = np.mean([o[0] for o in ops], axis=0)

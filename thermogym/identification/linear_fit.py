@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from thermogym.errors import ConfigError, RecordingError
+from thermogym.errors import ConfigError, IdentificationError, RecordingError
 from thermogym.fitresult import FitResult, data_entry, load_fit
 from thermogym.identification.metrics import fit_report
 from thermogym.identification.prepare import check_identification_data
@@ -152,7 +152,8 @@ def signal_arrays(
     ------
     RecordingError, IdentificationError
         See :func:`~thermogym.identification.prepare.check_identification_data`;
-        also recordings with different sample periods.
+        also recordings with different sample periods, and an output that is
+        constant in every recording.
     """
     recs = recording_list(recordings, what)
     if not recs:
@@ -175,6 +176,13 @@ def signal_arrays(
             f"{what}: the recordings have different sample periods {sorted(set(dts))} s; "
             "resample them to one period (thermogym.identification.prepare.resample)"
         )
+    for j, c in enumerate(outputs):  # a dead sensor or a wrong column: no method can fit it
+        y = np.concatenate([e.y[:, j] for e in out])
+        if np.ptp(y) <= 1e-12 * max(1.0, float(np.abs(y).max())):
+            raise IdentificationError(
+                f"{what}: output {c!r} is constant ({float(y[0]):g}) in every recording given; "
+                "nothing to identify (check the column and that the inputs reach it)"
+            )
     return out
 
 

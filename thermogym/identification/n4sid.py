@@ -198,13 +198,15 @@ def prepare_problem(
     min_samples: int = 8,
     step_inputs: bool | None = None,
     offsets: Mapping[str, Any] | None = None,
+    what: str = "N4SID",
 ) -> N4SIDProblem:
     """Check recordings and return deviation arrays in model column order.
 
     ``step_inputs`` accepts an input held constant at a non-zero value (a step
     from zero at ``t = 0``); default: with operating point ``"rest"`` only.
     ``offsets`` are given operating-point values that replace the mode's
-    (:func:`~thermogym.identification.linear_fit.check_offsets`).
+    (:func:`~thermogym.identification.linear_fit.check_offsets`). ``what``
+    names the method in messages.
     """
     inputs = [inputs] if isinstance(inputs, str) else list(inputs)
     outputs = [outputs] if isinstance(outputs, str) else list(outputs)
@@ -219,7 +221,7 @@ def prepare_problem(
         inputs,
         outputs,
         min_samples=min_samples,
-        what="N4SID",
+        what=what,
         step_inputs=operating_point_mode == "rest" if step_inputs is None else step_inputs,
     )
     ins, dis = exogenous_roles(exps[0].recording, inputs, disturbances)

@@ -215,7 +215,9 @@ def pem(
     )
     integer("max_order", max_order, lo=1, error=ConfigError)
     integer("max_delay", max_delay, lo=0, error=ConfigError)
-    prob = _problem(recordings, inputs, outputs, disturbances, operating_point_mode, offsets)
+    prob = _problem(
+        recordings, inputs, outputs, disturbances, operating_point_mode, offsets, family.upper()
+    )
     vals = [validate] if isinstance(validate, Recording) else list(validate)
     given = {"na": na, "nb": nb, "nc": nc, "nd": nd, "nf": nf, "nk": nk}
     has = STRUCTURES[family]

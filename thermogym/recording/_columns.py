@@ -8,6 +8,7 @@ the roles a column may carry.
 
 from __future__ import annotations
 
+import datetime as dt
 import re
 from collections.abc import Iterable
 from typing import Any
@@ -55,6 +56,15 @@ def _canonical_unit(unit: str) -> str:
 _UNSPECIFIED_UNITS = frozenset({"1", "?", "unknown", "none", "n/a"})
 
 
+#: The lowest value a temperature takes (absolute zero), per canonical unit.
+_ABSOLUTE_ZERO = {"°C": -273.15, "K": 0.0}
+
+
+def _absolute_zero(unit: str | None) -> float | None:
+    """Absolute zero in ``unit`` when it is a temperature unit (``°C``, ``K``), else None."""
+    return None if unit is None else _ABSOLUTE_ZERO.get(_canonical_unit(unit))
+
+
 def _unit_unspecified(unit: str | None) -> bool:
     """Whether ``unit`` says nothing (missing, empty, ``"1"``, ``"-"``, ``"unknown"``)."""
     return unit is None or _canonical_unit(unit).lower() in _UNSPECIFIED_UNITS
@@ -85,8 +95,13 @@ def _check_name(name: Any) -> str:
 
 
 def _show(v: Any) -> str:
-    """``repr`` of a value, numpy scalars shown as the Python value they hold."""
-    return repr(v.item() if isinstance(v, np.generic) else v)
+    """``repr`` of a value as a file wrote it.
+
+    Numpy scalars as the Python value they hold, a date or a time of day as its text
+    (``'08:00:00'``, not ``datetime.time(8, 0)``).
+    """
+    v = v.item() if isinstance(v, np.generic) else v
+    return repr(v.isoformat()) if isinstance(v, dt.date | dt.time) else repr(v)
 
 
 def _first_true(mask: NDArray[np.bool_]) -> int:

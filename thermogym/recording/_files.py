@@ -219,11 +219,14 @@ def _arrow_column(name: str, col: pa.ChunkedArray, where: str, line0: int | None
         notnull = np.asarray(pd.notna(values))
         i = _first_true(notnull) if notnull.any() else 0
     line = f" (line {i + line0})" if line0 is not None else ""
-    hint = (
-        "; a units row under the header? remove it (units go into the .meta.json sidecar)"
-        if i == 0 and line0 is not None
-        else ""
-    )
+    if pa.types.is_time(t):  # 08:00:00 without a date: no order across midnight
+        hint = "; times of day: give seconds, or date-times with the date (2024-03-01 08:00:00)"
+    elif pa.types.is_boolean(t):
+        hint = "; true/false: give 1/0"
+    elif i == 0 and line0 is not None and (pa.types.is_string(t) or pa.types.is_large_string(t)):
+        hint = "; a units row under the header? remove it (units go into the .meta.json sidecar)"
+    else:
+        hint = ""
     raise RecordingError(
         f"{where}: column {name!r} holds a non-numeric value {_show(values[i])} at row {i}{line} "
         f"(read as {t}); expected real numbers, an empty field for a missing sample{hint}"
@@ -457,7 +460,9 @@ def read_recording(
             meta=meta,
             where=where,
         )
-    except UnitError:
-        raise
+    except UnitError as e:
+        if where in str(e):  # a conflict of the sidecar with ``units=`` names the file
+            raise
+        raise UnitError(f"{where}: {e}") from e  # e.g. a unit of 'time' other than s
     except RecordingError as e:
         raise RecordingError(f"{where}: {e}") from e

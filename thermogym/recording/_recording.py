@@ -23,6 +23,7 @@ from thermogym.errors import RecordingError, ThermogymError, UnitError, UnknownN
 from thermogym.recording._columns import (
     _UNSET,
     ROLES,
+    _absolute_zero,
     _as_float_column,
     _canonical_unit,
     _check_name,
@@ -547,6 +548,59 @@ class Recording:
             self.check_values([s.name for s in needed])
         return unchecked
 
+    def check_temperatures(
+        self, expected: Mapping[str, str | None] | None = None, owner: str = ""
+    ) -> None:
+        """Refuse a temperature below absolute zero (a sensor's error code, another unit).
+
+        A column is a temperature when its unit is ``°C`` or ``K`` (any spelling
+        of them): its own unit, or for a column without one the unit in
+        ``expected``. Missing samples (NaN) are skipped.
+
+        Parameters
+        ----------
+        expected : mapping, optional
+            Column name → the unit a model or fit expects for it, taken for the
+            columns whose own unit is unspecified; only these columns are
+            checked (all when omitted).
+        owner : str
+            Who expects those units, for the message (``"model 'strut'"``).
+
+        Raises
+        ------
+        UnitError
+            Naming the column, the first such value, its row and time, and the unit.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> rec = Recording(np.arange(3.0), {"T": [20.0, -9999.0, 21.0]})
+        >>> rec.check_temperatures()  # no unit: not known to be a temperature
+        >>> rec.check_temperatures({"T": "degC"}, "model 'm'")  # doctest: +ELLIPSIS
+        Traceback (most recent call last):
+        ...
+        thermogym.errors.UnitError: column 'T' of recording holds -9999 at row 1 ...
+        """
+        names = self._data if expected is None else [n for n in expected if n in self._data]
+        for name in names:
+            v = self._data[name]
+            unit, whose = self._units.get(name), "its unit"
+            if _unit_unspecified(unit) and expected is not None:
+                unit, whose = expected.get(name), f"the unit {owner} expects"
+            lo = _absolute_zero(unit)
+            if lo is None:
+                continue
+            bad = v < lo - 1e-9 * max(1.0, abs(lo))  # NaN compares False
+            if bad.any():
+                i = _first_true(bad)
+                raise UnitError(
+                    f"column {name!r} of recording{self._label()} holds {float(v[i]):g} at row {i} "
+                    f"(time {float(self._time[i]):g} s), below absolute zero ({lo:g} {unit}, "
+                    f"{whose}); expected a temperature in {unit}: a sensor's error code (leave a "
+                    "missing sample empty) or a column in another unit (give its unit in the "
+                    ".meta.json sidecar)?"
+                )
+
     def check_units(self, expected: Mapping[str, str | None], owner: str) -> tuple[str, ...]:
         """Check the units of columns against the units a model or fit expects.
 
@@ -574,7 +628,9 @@ class Recording:
         ------
         UnitError
             A column's unit differs from the one expected; the message names
-            the column, both units and ``owner``.
+            the column, both units and ``owner``. Or a temperature (``°C``,
+            ``K`` on either side) is below absolute zero
+            (:meth:`check_temperatures`).
 
         Examples
         --------
@@ -598,6 +654,7 @@ class Recording:
                     f"column {name!r} of recording{self._label()} is in {have!r}, {owner} "
                     f"expects {want!r}"
                 )
+        self.check_temperatures(expected, owner)  # a unit known on either side
         return tuple(unchecked)
 
     @staticmethod

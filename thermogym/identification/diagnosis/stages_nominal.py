@@ -64,12 +64,8 @@ def _check_inputs(st: _Run) -> None:
     o = st.opts
     model = o["model"]
     generic = isinstance(model, str) and model.partition(":")[0] in ("foptd", "ss")
-    if generic and o["params"] is not None and not (o["inputs"] and o["outputs"]):
-        # the columns of a given generic FitResult are its own
-        cfg = load_fit(o["params"]).model_config
-        cfg = cfg.get("base_config", cfg) if "base" in cfg else cfg
-        o["inputs"] = o["inputs"] or [*cfg.get("inputs", []), *cfg.get("disturbances", [])]
-        o["outputs"] = o["outputs"] or list(cfg.get("outputs", []))
+    if generic and o["params"] is not None:
+        _fit_columns(o, model.partition(":")[0])
     nominal, spec = resolve_model(
         model,
         st.tr_list[0],
@@ -98,12 +94,35 @@ def _check_inputs(st: _Run) -> None:
         outs = [
             x for x in nominal.output_names if all(x in r.columns for r in st.tr_list + st.va_list)
         ]
+        left = [x for x in nominal.output_names if x not in outs]
+        if outs and left and not st.generic:
+            st.notes.append(
+                f"output(s) {left} of model {nominal.name!r} are not columns of every recording "
+                f"and are left out; the diagnosis compares {outs} (name them with outputs=..., "
+                "--outputs)"
+            )
     if not outs:
         raise RecordingError(
             f"the recordings hold none of the outputs of model {nominal.name!r} "
             f"({list(nominal.output_names)}); columns are {list(st.tr_list[0].columns)}: are they "
             "recordings of another plant?"
         )
+    for r in st.va_list:  # the same data on both sides: its scores are not held out
+        for twin in (q for q in st.tr_list if _same_data(q, r)):
+            st.notes.append(
+                f"validation recording {r.experiment_id!r} holds the same data as training "
+                f"recording {twin.experiment_id!r}: its held-out scores are training scores "
+                "(give recordings not used for training)"
+            )
+    for role, recs in (("training", st.tr_list), ("validation", st.va_list)):
+        # an output column left empty throughout (a sensor that was off)
+        empty = [x for x in outs if not any(np.isfinite(r[x]).any() for r in recs if x in r)]
+        if empty:
+            raise RecordingError(
+                f"output(s) {empty} hold no finite sample in any {role} recording "
+                f"({[r.experiment_id for r in recs]}); expected measurements to compare: give "
+                "--outputs without them, or recordings that measured them"
+            )
     if st.generic and o["params"] is None:
         # operating point: the training data's mean exogenous values (model column order)
         us = [r.exogenous_array(nominal) for r in st.tr_list]
@@ -127,6 +146,63 @@ def _check_inputs(st: _Run) -> None:
                 )
         nominal = spec.build()
     st.model, st.spec, st.outs = nominal, spec, outs
+
+
+def _same_data(a: Recording, b: Recording) -> bool:
+    """Whether two recordings hold the same samples (units, ids and metadata aside)."""
+    return (
+        a.n_samples == b.n_samples
+        and set(a.columns) == set(b.columns)
+        and np.array_equal(a.time, b.time)
+        and all(np.array_equal(a[c], b[c], equal_nan=True) for c in a.columns)
+    )
+
+
+def _fit_columns(o: dict[str, Any], name: str) -> None:
+    """Take the columns of a given generic FitResult (``params``) into ``o``.
+
+    Its fitted model reads its exogenous columns in its own order: ``inputs``, when
+    given, must name exactly those (they are put in the FitResult's order), and
+    ``outputs`` only its outputs.
+
+    Parameters
+    ----------
+    o : dict
+        The run's options (``params``, ``inputs``, ``outputs``); updated in place.
+    name : str
+        The generic model diagnosed (``"foptd"`` or ``"ss"``). A FitResult of another
+        model only fills the columns not given; :func:`_given` refuses it.
+
+    Raises
+    ------
+    ConfigError
+        ``inputs`` other than the FitResult's exogenous columns, or an output it lacks;
+        the message names both.
+    """
+    fit = load_fit(o["params"])
+    cfg = fit.model_config
+    base = cfg.get("base") if fit.model == "augmented" else fit.model
+    cfg = cfg.get("base_config", cfg) if "base" in cfg else cfg
+    exo = [*cfg.get("inputs", []), *cfg.get("disturbances", [])]
+    outs = list(cfg.get("outputs", []))
+    if base != name:  # another model's FitResult: _given refuses it, naming both models
+        o["inputs"] = o["inputs"] or exo
+        o["outputs"] = o["outputs"] or outs
+        return
+    if o["inputs"] and sorted(o["inputs"]) != sorted(exo):
+        raise ConfigError(
+            f"inputs {list(o['inputs'])} (--inputs) are not the exogenous columns of the "
+            f"FitResult (params, --params), {exo}; a fitted model reads exactly its own: give "
+            "those, or leave out inputs (--inputs) to take them from the FitResult"
+        )
+    bad = [c for c in o["outputs"] or () if c not in outs]
+    if bad:
+        raise ConfigError(
+            f"output(s) {bad} (--outputs) are not outputs of the FitResult (params, --params), "
+            f"whose outputs are {outs}; name some of those, or leave out outputs (--outputs)"
+        )
+    o["inputs"] = exo  # in the FitResult's order: the recordings' input columns follow it
+    o["outputs"] = o["outputs"] or outs
 
 
 def _beyond_training(
