@@ -181,20 +181,22 @@ def test_a_search_the_time_limit_cut_short_says_so_and_what_it_left_out():
     assert "## Incomplete search" in cut.to_markdown()
 
 
-@pytest.mark.parametrize("reserve", [2.0, 0.0])
-def test_a_search_the_time_limit_cuts_short_still_refits_what_it_screened(monkeypatch, reserve):
-    # a clock that moves only when a candidate is screened (1 s each): the limit of 4 s
-    # cuts the screening of 7 candidates whatever the machine's speed
+@pytest.mark.parametrize(("reserve", "refit_s"), [(2.0, 0.0), (2.0, 3.0), (0.0, 0.0)])
+def test_a_search_the_time_limit_cuts_short_still_refits_what_it_screened(
+    monkeypatch, reserve, refit_s
+):
+    # a clock that moves only when a candidate is fitted (1 s a screening fit, refit_s a
+    # joint refit): the limit of 4 s cuts the screening of 7 candidates on any machine
     import time
 
     from thermogym.identification.diagnosis import select
 
     clock = [1000.0]
-    screen = select.fit_hypothesis
+    fit = select.fit_hypothesis
 
     def fit_and_tick(*a, **k):
-        out = screen(*a, **k)
-        clock[0] += 1.0 if k.get("screen") else 0.0
+        out = fit(*a, **k)
+        clock[0] += 1.0 if k.get("screen") else refit_s
         return out
 
     monkeypatch.setattr(time, "perf_counter", lambda: clock[0])
@@ -204,15 +206,25 @@ def test_a_search_the_time_limit_cuts_short_still_refits_what_it_screened(monkey
     which = ["sensor_lag", "transport_delay", "sensor_offset", "nonlinear_heat_transfer"]
     rep = _run({"delay": 60.0}, seed=4, max_effects=1, candidates=which, time_limit=4.0)
     assert not rep.complete and "candidates not screened" in rep.incomplete[0]
-    if reserve:
-        # three of seven screened (the lag, the output dead time, ...); the time left is
-        # kept for their refits, and the dead time is named on what was screened
-        assert rep.named_effects[0] == "transport_delay", rep.verdict
-        assert any(not h["screened"] for h in rep.to_dict()["hypotheses"])
-    else:
+    if not reserve:
         # a screening that runs to the limit leaves nothing refitted: nothing named
         assert rep.named_effects == ["parameter_error"]
         assert any("not refitted jointly" in s for s in rep.incomplete)
+        return
+    # a few of seven screened; the time left is kept for refitting them, and the dead time
+    # is named on what was screened
+    assert rep.named_effects[0] == "transport_delay", rep.verdict
+    assert any(not h["screened"] for h in rep.to_dict()["hypotheses"])
+    (delay,) = rep.best["params"].values()
+    assert delay["value"] == pytest.approx(60.0, abs=10.0)
+    if refit_s:
+        # the refit ran past the limit: no intervals (their Jacobian would run further past
+        # it), and the report says so instead of showing values as if they had them
+        assert "low" not in delay
+        assert "intervals of the reported parameters not computed" in rep.incomplete
+        assert any("intervals not computed" in n for n in rep.best["notes"])
+    else:
+        assert delay["low"] < delay["value"] < delay["high"]
 
 
 @pytest.mark.parametrize("seed", [5, 6, 7])
