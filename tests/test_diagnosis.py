@@ -399,7 +399,7 @@ def test_a_given_generic_fit_takes_its_own_input_columns_in_its_own_order(tmp_pa
     tr, va = [r.replace(roles={}) for r in tr], [r.replace(roles={}) for r in va[:1]]
     path = tmp_path / "foptd.json"
     fit_foptd(tr, ["feed_rate", "T_air"], ["T_drive", "T_nut"], disturbances=[]).fit.save(path)
-    kw = dict(params=path, candidates=["sensor_offset"], max_effects=1, time_limit=5.0)
+    kw = dict(params=path, candidates=["sensor_offset"], max_effects=1)
     # columns other than the FitResult's: named, not an IndexError deep in the run
     with pytest.raises(ConfigError, match=r"\['feed_rate'\] \(--inputs\).*'T_air'"):
         diagnose("foptd", tr, va, inputs=["feed_rate"], **kw)
